@@ -1,0 +1,14 @@
+# Warnings live on an INTERFACE target so that every polyrad target opts in alike,
+# and a project that consumes polyrad does not inherit them.
+add_library(polyrad_warnings INTERFACE)
+target_compile_options(polyrad_warnings INTERFACE
+  $<$<CXX_COMPILER_ID:GNU,Clang>:-Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor
+   -Wno-unknown-pragmas>
+  # GCC 12 reports -Wrestrict inside std::string concatenation (GCC bug 105329).
+  $<$<CXX_COMPILER_ID:GNU>:-Wno-restrict>)
+
+if(POLYRAD_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer
+                      -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()
