@@ -1,0 +1,44 @@
+// Progress of long work on stderr: stage, percent, elapsed and remaining time.
+//
+// Shown only when stderr is a terminal (or when forced on), redrawn at most five times a
+// second, from whichever thread advances it. Thread-safe and cheap: advance() is one atomic add
+// and, rarely, a try_lock.
+//
+//   Progress bar("form factors", patches.size());
+//   #pragma omp parallel for
+//   for (...) { work(); bar.advance(); }
+//   bar.finish();
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <string>
+
+namespace polyrad {
+
+class Progress {
+ public:
+  Progress(std::string stage, long long total);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  void advance(long long n = 1);
+  void finish();
+
+  // Default: on when stderr is a terminal. Tests and scripted runs may force it either way.
+  static void set_enabled(bool on);
+  static bool enabled();
+
+ private:
+  void draw(long long done);
+  std::string stage_;
+  long long total_;
+  std::atomic<long long> done_{0};
+  std::chrono::steady_clock::time_point start_, last_draw_;
+  std::mutex draw_mutex_;
+  bool finished_ = false;
+};
+
+}  // namespace polyrad

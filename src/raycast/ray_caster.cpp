@@ -1,0 +1,131 @@
+// Embree 3 behind the RayCaster interface.
+#include "polyrad/ray_caster.h"
+
+#include <embree3/rtcore.h>
+
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace polyrad {
+
+namespace {
+
+void embree_error(void*, RTCError code, const char* message) {
+  // Embree reports through this callback; turning it into an exception would unwind through
+  // Embree's frames, so it is printed and the checks below stop the run.
+  std::fprintf(stderr, "polyrad: Embree error %d: %s\n", static_cast<int>(code),
+               message ? message : "");
+}
+
+}  // namespace
+
+struct RayCaster::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+};
+
+RayCaster::RayCaster(const PatchSet& patches)
+    : impl_(std::make_unique<Impl>()),
+      patches_(patches),
+      epsilon_(1e-5 * std::max(patches.scene_diameter, 1e-30)) {
+  impl_->device = rtcNewDevice(nullptr);
+  if (!impl_->device) throw std::runtime_error("cannot create the Embree device");
+  rtcSetDeviceErrorFunction(impl_->device, embree_error, nullptr);
+  impl_->scene = rtcNewScene(impl_->device);
+  // Robust mode: watertight traversal, so rays do not slip between patches that share an edge.
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+
+  RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_QUAD);
+  size_t n = patches.size();
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * n));
+  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), n));
+  if (!vertices || !indices) throw std::runtime_error("cannot allocate Embree buffers");
+  for (size_t p = 0; p < n; ++p) {
+    for (int c = 0; c < 4; ++c) {
+      const Vec3& v = patches[p].corner[c];
+      for (int k = 0; k < 3; ++k) vertices[3 * (4 * p + c) + k] = static_cast<float>(v[k]);
+      indices[4 * p + c] = static_cast<unsigned>(4 * p + c);
+    }
+  }
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(impl_->scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(impl_->scene);
+  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE)
+    throw std::runtime_error("Embree could not build the scene");
+}
+
+RayCaster::~RayCaster() {
+  if (impl_->scene) rtcReleaseScene(impl_->scene);
+  if (impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+Hit RayCaster::intersect(const Vec3& origin, const Vec3& direction, double tnear,
+                         double tfar) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh;
+  rh.ray.org_x = static_cast<float>(origin.x());
+  rh.ray.org_y = static_cast<float>(origin.y());
+  rh.ray.org_z = static_cast<float>(origin.z());
+  rh.ray.dir_x = static_cast<float>(direction.x());
+  rh.ray.dir_y = static_cast<float>(direction.y());
+  rh.ray.dir_z = static_cast<float>(direction.z());
+  rh.ray.tnear = static_cast<float>(tnear);
+  rh.ray.tfar = static_cast<float>(std::min(tfar, 3.0e38));
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &rh);
+
+  Hit hit;
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  hit.patch = static_cast<PatchId>(rh.hit.primID);
+  hit.t = rh.ray.tfar;
+  hit.u = rh.hit.u;
+  hit.v = rh.hit.v;
+  hit.front = direction.dot(patches_[hit.patch].normal) < 0.0;
+  return hit;
+}
+
+bool RayCaster::occluded(const Vec3& origin, const Vec3& direction, double tnear,
+                         double tfar) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray;
+  ray.org_x = static_cast<float>(origin.x());
+  ray.org_y = static_cast<float>(origin.y());
+  ray.org_z = static_cast<float>(origin.z());
+  ray.dir_x = static_cast<float>(direction.x());
+  ray.dir_y = static_cast<float>(direction.y());
+  ray.dir_z = static_cast<float>(direction.z());
+  ray.tnear = static_cast<float>(tnear);
+  ray.tfar = static_cast<float>(std::min(tfar, 3.0e38));
+  ray.time = 0.0f;
+  ray.mask = 0xFFFFFFFFu;
+  ray.id = 0;
+  ray.flags = 0;
+  rtcOccluded1(impl_->scene, &context, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar to -inf when it finds an occluder
+}
+
+}  // namespace polyrad
+
+namespace polyrad {
+
+bool RayCaster::segment_occluded(const Vec3& a, const Vec3& b) const {
+  Vec3 d = b - a;
+  double length = d.norm();
+  if (length <= 2.0 * epsilon_) return false;
+  return occluded(a, d, epsilon_ / length, 1.0 - epsilon_ / length);
+}
+
+}  // namespace polyrad
