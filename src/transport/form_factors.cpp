@@ -1,0 +1,295 @@
+// Form factors (form_factors.h). Equation numbers refer to papers/glossy-radiosity.md.
+#include "polyrad/form_factors.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "polyrad/progress.h"
+#include "polyrad/sampling.h"
+
+namespace polyrad {
+
+namespace {
+
+struct QuadraturePoint {
+  Vec3 x;
+  double w;  // area weight; the weights of a polygon sum to its area
+};
+
+std::vector<Vec3> corners_of(const Patch& p) {
+  return std::vector<Vec3>(p.corner.begin(), p.corner.begin() + p.corners);
+}
+
+// Gauss rule on a convex polygon. An unclipped quad uses its bilinear map, anything else a fan
+// of triangles with the Duffy map (s, t) -> a + s (b - a) + s t (c - b), Jacobian 2 A s.
+void gauss_rule(const std::vector<Vec3>& poly, bool bilinear_quad, int n,
+                std::vector<QuadraturePoint>& out) {
+  const GaussRule& g = gauss_legendre(n);
+  if (bilinear_quad) {
+    const Vec3 &v0 = poly[0], &v1 = poly[1], &v2 = poly[2], &v3 = poly[3];
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        double s = g.node[a], t = g.node[b];
+        Vec3 x = (1 - s) * (1 - t) * v0 + s * (1 - t) * v1 + s * t * v2 + (1 - s) * t * v3;
+        Vec3 ds = (1 - t) * (v1 - v0) + t * (v2 - v3);
+        Vec3 dt = (1 - s) * (v3 - v0) + s * (v2 - v1);
+        out.push_back({x, g.weight[a] * g.weight[b] * ds.cross(dt).norm()});
+      }
+    return;
+  }
+  for (size_t k = 1; k + 1 < poly.size(); ++k) {
+    const Vec3 &a = poly[0], &b = poly[k], &c = poly[k + 1];
+    double twice_area = (b - a).cross(c - b).norm();
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        double s = g.node[i], t = g.node[j];
+        out.push_back({a + s * (b - a) + s * t * (c - b), g.weight[i] * g.weight[j] * twice_area * s});
+      }
+  }
+}
+
+double polygon_diameter(const std::vector<Vec3>& poly) {
+  double d = 0.0;
+  for (size_t a = 0; a < poly.size(); ++a)
+    for (size_t b = a + 1; b < poly.size(); ++b) d = std::max(d, (poly[a] - poly[b]).norm());
+  return d;
+}
+
+// Distance from x to a planar convex polygon (to its plane if x projects inside, else to the
+// nearest edge).
+double distance_to_polygon(const Vec3& x, const std::vector<Vec3>& poly) {
+  Vec3 n = Vec3::Zero();
+  for (size_t k = 0; k < poly.size(); ++k) n += poly[k].cross(poly[(k + 1) % poly.size()]);
+  n.normalize();
+  bool inside = true;
+  double best = 1e300;
+  for (size_t k = 0; k < poly.size(); ++k) {
+    const Vec3& p = poly[k];
+    const Vec3& q = poly[(k + 1) % poly.size()];
+    if ((q - p).cross(x - p).dot(n) < 0.0) inside = false;
+    Vec3 e = q - p;
+    double t = std::clamp((x - p).dot(e) / e.squaredNorm(), 0.0, 1.0);
+    best = std::min(best, (x - (p + t * e)).norm());
+  }
+  return inside ? std::abs((x - poly[0]).dot(n)) : best;
+}
+
+// The outer rule, refined geometrically toward the other patch: a piece closer to it than its
+// own size is split in four (up to `depth` times), so the log-singular integrand of patches that
+// share an edge is integrated on a grading toward that edge.
+void outer_rule(const std::vector<Vec3>& poly, bool bilinear_quad, const std::vector<Vec3>& other,
+                int n, int depth, std::vector<QuadraturePoint>& out) {
+  Vec3 centre = Vec3::Zero();
+  for (const auto& v : poly) centre += v / static_cast<double>(poly.size());
+  if (depth == 0 || distance_to_polygon(centre, other) >= polygon_diameter(poly)) {
+    gauss_rule(poly, bilinear_quad, n, out);
+    return;
+  }
+  if (bilinear_quad) {
+    auto at = [&](double s, double t) {
+      return (1 - s) * (1 - t) * poly[0] + s * (1 - t) * poly[1] + s * t * poly[2] + (1 - s) * t * poly[3];
+    };
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) {
+        double s0 = 0.5 * a, s1 = 0.5 * (a + 1), t0 = 0.5 * b, t1 = 0.5 * (b + 1);
+        outer_rule({at(s0, t0), at(s1, t0), at(s1, t1), at(s0, t1)}, true, other, n, depth - 1, out);
+      }
+    return;
+  }
+  for (size_t k = 1; k + 1 < poly.size(); ++k) {
+    const Vec3 &a = poly[0], &b = poly[k], &c = poly[k + 1];
+    Vec3 ab = 0.5 * (a + b), bc = 0.5 * (b + c), ca = 0.5 * (c + a);
+    for (const auto& tri : {std::vector<Vec3>{a, ab, ca}, std::vector<Vec3>{ab, b, bc},
+                            std::vector<Vec3>{ca, bc, c}, std::vector<Vec3>{ab, bc, ca}})
+      outer_rule(tri, false, other, n, depth - 1, out);
+  }
+}
+
+// Area-uniform stratified points on a convex polygon (fan triangles chosen by area).
+class PolygonSampler {
+ public:
+  explicit PolygonSampler(const std::vector<Vec3>& poly) : poly_(poly) {
+    double total = 0.0;
+    for (size_t k = 1; k + 1 < poly.size(); ++k) {
+      total += 0.5 * (poly[k] - poly[0]).cross(poly[k + 1] - poly[0]).norm();
+      cumulative_.push_back(total);
+    }
+    for (double& c : cumulative_) c /= total;
+  }
+  // u0 selects the triangle (and is reused inside it), u1 is the second coordinate.
+  Vec3 sample(double u0, double u1) const {
+    size_t k = 0;
+    while (k + 1 < cumulative_.size() && u0 > cumulative_[k]) ++k;
+    double lo = k == 0 ? 0.0 : cumulative_[k - 1];
+    double r = std::clamp((u0 - lo) / (cumulative_[k] - lo), 0.0, 1.0);
+    double sr = std::sqrt(r);
+    const Vec3 &a = poly_[0], &b = poly_[k + 1], &c = poly_[k + 2];
+    return (1 - sr) * a + sr * (1 - u1) * b + sr * u1 * c;
+  }
+
+ private:
+  const std::vector<Vec3>& poly_;
+  std::vector<double> cumulative_;
+};
+
+bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) {
+  for (int c = 0; c < p.corners; ++c)
+    if ((p.corner[c] - plane.centroid).dot(plane.normal) > eps) return true;
+  return false;
+}
+
+int points_for(const Patch& a, const Patch& b, const FormFactorOptions& o) {
+  double ratio = (a.centroid - b.centroid).norm() / std::max(a.diameter(), b.diameter());
+  if (ratio < o.near_ratio) return o.near_points;
+  if (ratio < o.far_ratio) return o.mid_points;
+  return o.far_points;
+}
+
+}  // namespace
+
+std::vector<Vec3> clip_to_front(const std::vector<Vec3>& polygon, const Vec3& origin,
+                                const Vec3& normal) {
+  std::vector<Vec3> out;
+  size_t n = polygon.size();
+  for (size_t k = 0; k < n; ++k) {
+    const Vec3& p = polygon[k];
+    const Vec3& q = polygon[(k + 1) % n];
+    double dp = (p - origin).dot(normal), dq = (q - origin).dot(normal);
+    if (dp >= 0.0) out.push_back(p);
+    if ((dp >= 0.0) != (dq >= 0.0)) out.push_back(p + (dp / (dp - dq)) * (q - p));
+  }
+  return out;
+}
+
+double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon) {
+  // Lambert: F = 1/(2 pi) sum_edges gamma_e (n . unit(r_k x r_k+1)), gamma_e the angle the edge
+  // subtends at x (eq. 5). The sign of the sum follows the winding; the magnitude is F.
+  double sum = 0.0;
+  size_t m = polygon.size();
+  for (size_t k = 0; k < m; ++k) {
+    Vec3 r0 = polygon[k] - x;
+    Vec3 r1 = polygon[(k + 1) % m] - x;
+    Vec3 c = r0.cross(r1);
+    double cn = c.norm();
+    if (cn <= 0.0) continue;
+    double gamma = std::atan2(cn, r0.dot(r1));
+    sum += gamma * n.dot(c) / cn;
+  }
+  return std::abs(sum) / (2.0 * kPi);
+}
+
+double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* caster,
+                             const FormFactorOptions& options, std::uint64_t key,
+                             long long* rays_cast) {
+  double eps = 1e-9 * std::max(a.diameter(), b.diameter());
+  if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return 0.0;
+  std::vector<Vec3> a_front = clip_to_front(corners_of(a), b.centroid, b.normal);
+  std::vector<Vec3> b_front = clip_to_front(corners_of(b), a.centroid, a.normal);
+  if (a_front.size() < 3 || b_front.size() < 3) return 0.0;
+
+  bool a_whole_quad = !a.is_triangle() && a_front.size() == 4 && a_front[0] == a.corner[0] &&
+                      a_front[1] == a.corner[1] && a_front[2] == a.corner[2];
+  std::vector<QuadraturePoint> points;
+  int n = points_for(a, b, options);
+  outer_rule(a_front, a_whole_quad, b_front, n, n == options.near_points ? options.near_depth : 0,
+             points);
+  PolygonSampler target(b_front);
+
+  double total = 0.0;
+  for (size_t q = 0; q < points.size(); ++q) {
+    const Vec3& x = points[q].x;
+    double f = point_to_polygon_form_factor(x, a.normal, b_front);
+    if (f <= 0.0) continue;
+    double visible = 1.0;
+    if (caster) {
+      // Kernel-weighted fraction of unblocked rays: exact when b is wholly visible or hidden.
+      Rng rng(options.seed, key, q);
+      int m = options.visibility_rays;
+      double kernel_sum = 0.0, kernel_visible = 0.0;
+      for (int s = 0; s < m; ++s) {
+        Vec3 y = target.sample((s + rng.uniform()) / m, rng.uniform());
+        Vec3 d = y - x;
+        double r2 = d.squaredNorm();
+        if (r2 <= 0.0) continue;
+        double k = std::max(0.0, d.dot(a.normal)) * std::max(0.0, -d.dot(b.normal)) / (r2 * r2);
+        kernel_sum += k;
+        if (k <= 0.0) continue;
+        if (rays_cast) ++*rays_cast;
+        if (!caster->segment_occluded(x, y)) kernel_visible += k;
+      }
+      visible = kernel_sum > 0.0 ? kernel_visible / kernel_sum : 1.0;
+    }
+    total += points[q].w * f * visible;
+  }
+  return total;
+}
+
+double FormFactors::row_sum(PatchId i) const {
+  double s = 0.0;
+  for (auto k = f.start[i]; k < f.start[i + 1]; ++k) s += f.value[k];
+  return s;
+}
+
+FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caster,
+                                 const FormFactorOptions& options) {
+  auto t0 = std::chrono::steady_clock::now();
+  const auto n = static_cast<PatchId>(patches.size());
+  // upper[i]: (j, A_i F_ij) for j > i. Filled by whichever thread owns row i.
+  std::vector<std::vector<std::pair<PatchId, double>>> upper(n);
+  long long facing = 0, rays = 0;
+  Progress progress("form factors", n);
+
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : facing, rays)
+  for (PatchId i = 0; i < n; ++i) {
+    const Patch& pi = patches[i];
+    for (PatchId j = i + 1; j < n; ++j) {
+      const Patch& pj = patches[j];
+      // Integrate over the smaller patch; G = A_a F_ab is the same number either way.
+      bool i_outer = pi.area <= pj.area;
+      const Patch& a = i_outer ? pi : pj;
+      const Patch& b = i_outer ? pj : pi;
+      double eps = 1e-9 * std::max(a.diameter(), b.diameter());
+      if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) continue;
+      ++facing;
+      std::uint64_t key = static_cast<std::uint64_t>(i) * static_cast<std::uint64_t>(n) + j;
+      long long pair_rays = 0;
+      double g = pair_area_form_factor(a, b, &caster, options, key, &pair_rays);
+      rays += pair_rays;
+      if (g > 0.0) upper[i].emplace_back(j, g);
+    }
+    progress.advance();
+  }
+  progress.finish();
+
+  FormFactors ff;
+  std::vector<std::int64_t> degree(n + 1, 0);
+  for (PatchId i = 0; i < n; ++i)
+    for (const auto& [j, g] : upper[i]) {
+      ++degree[i];
+      ++degree[j];
+    }
+  ff.f.rows = ff.f.cols = n;
+  ff.f.start.assign(n + 1, 0);
+  for (PatchId i = 0; i < n; ++i) ff.f.start[i + 1] = ff.f.start[i] + degree[i];
+  ff.f.column.resize(ff.f.start[n]);
+  ff.f.value.resize(ff.f.start[n]);
+  std::vector<std::int64_t> fill(ff.f.start.begin(), ff.f.start.end() - 1);
+  // Row r receives (r, i) for i < r while i ascends, then its own (r, j > r): columns sorted.
+  for (PatchId i = 0; i < n; ++i)
+    for (const auto& [j, g] : upper[i]) {
+      ff.f.column[fill[i]] = j;
+      ff.f.value[fill[i]++] = static_cast<float>(g / patches[i].area);
+      ff.f.column[fill[j]] = i;
+      ff.f.value[fill[j]++] = static_cast<float>(g / patches[j].area);
+    }
+  ff.stats.pairs_facing = facing;
+  ff.stats.rays = rays;
+  ff.stats.pairs_visible = static_cast<long long>(ff.f.nnz() / 2);
+  ff.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return ff;
+}
+
+}  // namespace polyrad
