@@ -1,0 +1,80 @@
+// The specular transfer R_jik: which fraction of the flux that arrives at a non-diffuse patch i
+// from patch j its lobe sends on to patch k. Sparse: a lobe reaches few patches.
+//
+// Estimator (papers/glossy-radiosity.md, eq. 8): for each facing pair (j -> i), S stratified
+// point pairs (y on P_j, x on P_i), each weighted by w = G(x, y) V(x, y); at x the lobe's own
+// sampler picks the outgoing direction with weight beta = lobe * cos / pdf (<= 1), and the ray
+// credits the patch k it meets:
+//     R_jik = sum(w * beta * [ray hits k]) / sum(w)
+// Exact for mirrors (beta = 1), never above the lobe's albedo, so the transfer cannot create
+// energy. The seed's centre-point evaluation of rho is available as an option to compare.
+//
+//   SpecularTransfer st = compute_specular_transfer(patches, materials, ff, caster, {});
+//   for (auto e = st.start[i]; e < st.start[i + 1]; ++e) use(st.from[e], st.to[e], st.fraction[e]);
+//
+// Cost: S rays + S shadow rays per facing pair into a non-diffuse patch; memory 12 bytes per
+// stored R_jik.
+#pragma once
+
+#include <vector>
+
+#include "polyrad/brdf.h"
+#include "polyrad/form_factors.h"
+#include "polyrad/mesher.h"
+#include "polyrad/ray_caster.h"
+
+namespace polyrad {
+
+enum class SpecularEstimator {
+  kMonteCarlo,   // eq. 8: point pairs and lobe sampling (the default)
+  kCentrePoint,  // the seed's rho evaluated at patch centres (compared, never the default)
+};
+
+struct SpecularOptions {
+  int samples = 16;  // point pairs per link pair (j -> i)
+  SpecularEstimator estimator = SpecularEstimator::kMonteCarlo;
+  std::uint64_t seed = 7;
+};
+
+struct SpecularStats {
+  double seconds = 0.0;
+  long long rays = 0;
+  long long pairs = 0;            // link pairs (j -> i) into non-diffuse patches
+  long long pairs_unseen = 0;     // pairs with F_ij > 0 whose samples were all blocked
+  double escaped_fraction = 0.0;  // weight-average share of lobe rays that hit no front face
+};
+
+class SpecularTransfer {
+ public:
+  // Entries of patch i (the reflector): [start[i], start[i+1]), sorted by (from, to).
+  std::vector<std::int64_t> start;
+  std::vector<PatchId> from;     // j
+  std::vector<PatchId> to;       // k
+  std::vector<float> fraction;   // R_jik, colour excluded
+  SpecularStats stats;
+
+  std::int64_t entries() const { return static_cast<std::int64_t>(to.size()); }
+  std::size_t bytes() const {
+    return start.size() * sizeof(std::int64_t) + from.size() * sizeof(PatchId) +
+           to.size() * sizeof(PatchId) + fraction.size() * sizeof(float);
+  }
+};
+
+SpecularTransfer compute_specular_transfer(const PatchSet& patches,
+                                           const std::vector<Material>& materials,
+                                           const FormFactors& ff, const RayCaster& caster,
+                                           const SpecularOptions& options = {});
+
+// The entries of one reflecting patch i, as (j, k, R_jik), computed exactly as
+// compute_specular_transfer does (same seeds): the building block of the on-the-fly operator.
+struct TransferEntry {
+  PatchId from, to;
+  float fraction;
+};
+void specular_entries_of(const PatchSet& patches, const Material& material, const FormFactors& ff,
+                         const RayCaster& caster, const SpecularOptions& options, PatchId i,
+                         std::vector<TransferEntry>& out, long long* rays = nullptr,
+                         long long* unseen = nullptr, double* escaped = nullptr,
+                         double* weight = nullptr);
+
+}  // namespace polyrad

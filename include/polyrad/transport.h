@@ -1,0 +1,98 @@
+// The transport operator T of u = e + T u, over exactly the unknowns the scene needs.
+//
+// Unknowns (papers/glossy-radiosity.md, section 3), one RGB value each:
+//   u[i]      = B_i          diffuse radiosity of patch i, i in [0, N)      (emission included)
+//   u[N + l]  = S_{i->k}     specular radiance of link l = (i -> k), l in [0, M)
+// Radiance leaving i toward k is L_{i->k} = B_i + S_{i->k} (S = 0 where no link is stored).
+//
+// Rows (eq. 6 and 7), per colour channel c:
+//   B_i       = E_i + d_i[c] * sum_j F_ij L_{j->i}
+//   S_{i->k}  = s_i[c] * sum_j W_jik L_{j->i},   W_jik = R_jik F_ij / F_ik
+// Both are "colour of the row times a sum of scalar weights times unknowns", so T is stored as
+// one sparse matrix of float weights plus one colour per row, and a sweep is one pass over it
+// for all three channels. A purely diffuse scene has M = 0: the classic radiosity system.
+//
+//   TransportOperator t = build_transport(patches, materials, ff, &specular);
+//   Field u = t.emission();
+//   Field next(u.rows(), 3);
+//   t.apply(u, next);                      // next = T u
+//
+// Cost: memory 8 bytes per weight + 12 per row; apply() reads every weight once.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "polyrad/brdf.h"
+#include "polyrad/form_factors.h"
+#include "polyrad/mesher.h"
+#include "polyrad/sparse.h"
+
+namespace polyrad {
+
+// One RGB value per unknown, rows in unknown order.
+using Field = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+// Several fields side by side: row r holds [col0 rgb, col1 rgb, ...] (3 C values).
+using FieldBlock = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct Link {
+  PatchId from = 0;  // i
+  PatchId to = 0;    // k
+};
+
+class SpecularTransfer;  // specular_transfer.h
+
+class TransportOperator {
+ public:
+  int num_patches() const { return num_patches_; }
+  int num_links() const { return static_cast<int>(links_.size()); }
+  Eigen::Index size() const { return num_patches_ + num_links(); }
+  const std::vector<Link>& links() const { return links_; }
+  // Index of the unknown S_{i->k}, or -1 if that link carries no specular radiance.
+  Eigen::Index link_unknown(PatchId i, PatchId k) const;
+
+  const Csr<float>& weights() const { return weights_; }
+  const std::vector<Eigen::Array3f>& row_colour() const { return row_colour_; }
+  // Flux per unit radiance of each unknown: pi A_i for B_i, tau_ik = pi A_i F_ik for S_{i->k}.
+  // In these weights every column of T sums to at most the largest albedo (section 5).
+  const std::vector<double>& flux_weight() const { return flux_weight_; }
+
+  // e: the patches' emission in the B rows, zero elsewhere.
+  Field emission() const;
+  Field emission(const std::vector<Rgb>& patch_emission) const;
+
+  // out = T in, for one field or a block of fields. in and out must not alias.
+  void apply(const Field& in, Field& out) const;
+  void apply(const FieldBlock& in, FieldBlock& out) const;
+  // One Gauss-Seidel sweep in place: u[r] = e[r] + (T u)[r], rows in order.
+  void gauss_seidel_sweep(const Field& e, Field& u) const;
+
+  // The flux-weighted 1-norm of a field, summed over channels (section 5).
+  double flux_norm(const Field& f) const;
+  // Memory of the stored operator, in bytes, by part.
+  std::size_t bytes() const;
+  std::int64_t nnz_diffuse() const { return nnz_diffuse_; }
+  std::int64_t nnz_specular() const { return weights_.nnz() - nnz_diffuse_; }
+  // The largest albedo bound over the materials that reflect (a_max of section 5).
+  double max_albedo() const { return max_albedo_; }
+
+ private:
+  friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
+                                           const FormFactors&, const SpecularTransfer*);
+  int num_patches_ = 0;
+  std::vector<Link> links_;
+  std::vector<std::int64_t> link_start_;  // links of patch i: [link_start_[i], link_start_[i+1])
+  Csr<float> weights_;
+  std::vector<Eigen::Array3f> row_colour_;
+  std::vector<double> flux_weight_;
+  std::vector<Rgb> patch_emission_;
+  std::int64_t nnz_diffuse_ = 0;
+  double max_albedo_ = 0.0;
+};
+
+// Builds T from the form factors and, if given, the specular transfer. Materials are indexed by
+// Patch::material.
+TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
+                                  const FormFactors& ff, const SpecularTransfer* specular);
+
+}  // namespace polyrad

@@ -1,0 +1,232 @@
+// The transport operator (transport.h); equations from papers/glossy-radiosity.md.
+#include "polyrad/transport.h"
+
+#include <algorithm>
+#include <map>
+
+#include "polyrad/specular_transfer.h"
+
+namespace polyrad {
+
+namespace {
+
+struct Entry {
+  std::int32_t column;
+  double weight;
+};
+
+// Sorts a row's entries by column and sums duplicates.
+void compact(std::vector<Entry>& row) {
+  std::sort(row.begin(), row.end(), [](const Entry& a, const Entry& b) { return a.column < b.column; });
+  size_t w = 0;
+  for (size_t r = 0; r < row.size(); ++r) {
+    if (w > 0 && row[w - 1].column == row[r].column) row[w - 1].weight += row[r].weight;
+    else row[w++] = row[r];
+  }
+  row.resize(w);
+}
+
+// Which links i -> k carry specular radiance: a fixed point over the transfer entries. A link
+// is active when some entry (j, i, k) has a source that can be bright: B_j (if j emits or
+// reflects diffusely) or an active link j -> i.
+std::map<std::pair<PatchId, PatchId>, LinkId> active_links(const PatchSet& patches,
+                                                           const std::vector<Material>& materials,
+                                                           const FormFactors& ff,
+                                                           const SpecularTransfer& st) {
+  auto b_can_shine = [&](PatchId j) {
+    // An emitter counts even when dark: relighting may switch it on.
+    const Patch& p = patches[j];
+    return p.emitter || materials[p.material].diffuse.maxCoeff() > 0.0;
+  };
+  std::map<std::pair<PatchId, PatchId>, LinkId> active;
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (PatchId i = 0; i + 1 < static_cast<PatchId>(st.start.size()); ++i) {
+      for (auto e = st.start[i]; e < st.start[i + 1]; ++e) {
+        PatchId j = st.from[e], k = st.to[e];
+        if (st.fraction[e] <= 0.0f || ff.at(i, k) <= 0.0) continue;
+        if (active.count({i, k})) continue;
+        if (b_can_shine(j) || active.count({j, i})) {
+          active.emplace(std::make_pair(i, k), 0);
+          changed = true;
+        }
+      }
+    }
+  }
+  LinkId next = 0;
+  for (auto& [key, id] : active) id = next++;  // map order: sorted by (i, k)
+  return active;
+}
+
+}  // namespace
+
+Eigen::Index TransportOperator::link_unknown(PatchId i, PatchId k) const {
+  auto first = links_.begin() + link_start_[i];
+  auto last = links_.begin() + link_start_[i + 1];
+  auto it = std::lower_bound(first, last, k, [](const Link& l, PatchId key) { return l.to < key; });
+  if (it == last || it->to != k) return -1;
+  return num_patches_ + (it - links_.begin());
+}
+
+TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
+                                  const FormFactors& ff, const SpecularTransfer* specular) {
+  TransportOperator t;
+  const auto n = static_cast<PatchId>(patches.size());
+  t.num_patches_ = n;
+  for (const auto& p : patches.patches) t.patch_emission_.push_back(p.emission);
+  for (const auto& m : materials) {
+    bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
+    if (reflects) t.max_albedo_ = std::max(t.max_albedo_, m.albedo_bound().maxCoeff());
+  }
+
+  std::map<std::pair<PatchId, PatchId>, LinkId> active;
+  if (specular) active = active_links(patches, materials, ff, *specular);
+  t.links_.resize(active.size());
+  for (const auto& [key, id] : active) t.links_[id] = Link{key.first, key.second};
+  t.link_start_.assign(n + 1, 0);
+  for (const auto& l : t.links_) ++t.link_start_[l.from + 1];
+  for (PatchId i = 0; i < n; ++i) t.link_start_[i + 1] += t.link_start_[i];
+
+  // Links into each patch, for the diffuse rows: (link, F_ij) of every active j -> i.
+  std::vector<std::vector<Entry>> incoming(n);
+  for (LinkId l = 0; l < t.num_links(); ++l) {
+    const Link& link = t.links_[l];
+    incoming[link.to].push_back({n + l, ff.at(link.to, link.from)});
+  }
+
+  t.weights_.cols = t.size();
+  std::vector<Entry> row;
+  // Diffuse rows, eq. 6: B_i = E_i + d_i sum_j F_ij (B_j + S_{j->i}).
+  for (PatchId i = 0; i < n; ++i) {
+    const Material& m = materials[patches[i].material];
+    row.clear();
+    if (m.diffuse.maxCoeff() > 0.0) {  // a pure mirror needs no diffuse row
+      for (auto k = ff.f.start[i]; k < ff.f.start[i + 1]; ++k)
+        row.push_back({ff.f.column[k], ff.f.value[k]});
+      row.insert(row.end(), incoming[i].begin(), incoming[i].end());
+      compact(row);
+    }
+    for (const auto& e : row) {
+      t.weights_.column.push_back(e.column);
+      t.weights_.value.push_back(static_cast<float>(e.weight));
+    }
+    t.weights_.push_row();
+    t.row_colour_.push_back(m.diffuse.cast<float>());
+    t.flux_weight_.push_back(kPi * patches[i].area);
+  }
+  t.nnz_diffuse_ = t.weights_.nnz();
+
+  // Specular rows, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}), W_jik = R_jik F_ij / F_ik.
+  std::vector<std::vector<Entry>> link_rows(t.links_.size());
+  if (specular) {
+    for (PatchId i = 0; i < n; ++i) {
+      for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e) {
+        PatchId j = specular->from[e], k = specular->to[e];
+        auto it = active.find({i, k});
+        if (it == active.end()) continue;
+        double w = specular->fraction[e] * ff.at(i, j) / ff.at(i, k);
+        auto& r = link_rows[it->second];
+        r.push_back({j, w});
+        auto src = active.find({j, i});
+        if (src != active.end()) r.push_back({n + src->second, w});
+      }
+    }
+  }
+  for (LinkId l = 0; l < t.num_links(); ++l) {
+    compact(link_rows[l]);
+    for (const auto& e : link_rows[l]) {
+      t.weights_.column.push_back(e.column);
+      t.weights_.value.push_back(static_cast<float>(e.weight));
+    }
+    t.weights_.push_row();
+    const Link& link = t.links_[l];
+    t.row_colour_.push_back(materials[patches[link.from].material].specular.cast<float>());
+    t.flux_weight_.push_back(kPi * patches[link.from].area * ff.at(link.from, link.to));
+  }
+  return t;
+}
+
+Field TransportOperator::emission() const { return emission(patch_emission_); }
+
+Field TransportOperator::emission(const std::vector<Rgb>& patch_emission) const {
+  Field e = Field::Zero(size(), 3);
+  for (int i = 0; i < num_patches_; ++i) e.row(i) = patch_emission[i].matrix().transpose();
+  return e;
+}
+
+void TransportOperator::apply(const Field& in, Field& out) const {
+  const Eigen::Index rows = size();
+  out.resize(rows, 3);
+  const auto* start = weights_.start.data();
+  const auto* col = weights_.column.data();
+  const auto* val = weights_.value.data();
+#pragma omp parallel for schedule(dynamic, 256)
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+    for (auto k = start[r]; k < start[r + 1]; ++k) {
+      const double w = val[k];
+      const double* x = in.data() + 3 * static_cast<Eigen::Index>(col[k]);
+      a0 += w * x[0];
+      a1 += w * x[1];
+      a2 += w * x[2];
+    }
+    const auto& c = row_colour_[r];
+    out(r, 0) = c[0] * a0;
+    out(r, 1) = c[1] * a1;
+    out(r, 2) = c[2] * a2;
+  }
+}
+
+void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
+  const Eigen::Index rows = size();
+  const Eigen::Index width = in.cols();
+  out.resize(rows, width);
+#pragma omp parallel
+  {
+    std::vector<double> acc(width);
+#pragma omp for schedule(dynamic, 64)
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k) {
+        const double w = weights_.value[k];
+        const double* x = in.data() + width * static_cast<Eigen::Index>(weights_.column[k]);
+        for (Eigen::Index c = 0; c < width; ++c) acc[c] += w * x[c];
+      }
+      const auto& colour = row_colour_[r];
+      double* y = out.data() + width * r;
+      for (Eigen::Index c = 0; c < width; ++c) y[c] = colour[c % 3] * acc[c];
+    }
+  }
+}
+
+void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
+  const Eigen::Index rows = size();
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+    for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k) {
+      const double w = weights_.value[k];
+      const double* x = u.data() + 3 * static_cast<Eigen::Index>(weights_.column[k]);
+      a0 += w * x[0];
+      a1 += w * x[1];
+      a2 += w * x[2];
+    }
+    const auto& c = row_colour_[r];
+    u(r, 0) = e(r, 0) + c[0] * a0;
+    u(r, 1) = e(r, 1) + c[1] * a1;
+    u(r, 2) = e(r, 2) + c[2] * a2;
+  }
+}
+
+double TransportOperator::flux_norm(const Field& f) const {
+  double s = 0.0;
+  for (Eigen::Index r = 0; r < f.rows(); ++r) s += flux_weight_[r] * f.row(r).cwiseAbs().sum();
+  return s;
+}
+
+std::size_t TransportOperator::bytes() const {
+  return weights_.bytes() + row_colour_.size() * sizeof(Eigen::Array3f) +
+         links_.size() * sizeof(Link) + link_start_.size() * sizeof(std::int64_t);
+}
+
+}  // namespace polyrad
