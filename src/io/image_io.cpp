@@ -1,0 +1,124 @@
+// Image files (image.h): OpenEXR and PNG through OpenImageIO, PFM written directly.
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "polyrad/error.h"
+#include "polyrad/files.h"
+#include "polyrad/image.h"
+
+namespace polyrad {
+
+namespace {
+
+std::string extension_of(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+double srgb_encode(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+}
+
+void write_pfm(const Image& image, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) throw std::runtime_error("cannot create " + path);
+  // PFM: "PF", size, negative scale for little-endian, then rows from the bottom up.
+  bool ok = std::fprintf(f, "PF\n%d %d\n-1.0\n", image.width, image.height) > 0;
+  for (int y = image.height - 1; y >= 0 && ok; --y)
+    ok = std::fwrite(&image.rgb[3 * static_cast<size_t>(y) * image.width], sizeof(float),
+                     3 * static_cast<size_t>(image.width), f) == 3 * static_cast<size_t>(image.width);
+  ok = (std::fclose(f) == 0) && ok;
+  if (!ok) throw std::runtime_error("cannot write " + path);
+}
+
+Image read_pfm(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(SourceLocation{path}, "cannot open the image");
+  std::string magic;
+  int w = 0, h = 0;
+  double scale = 0.0;
+  in >> magic >> w >> h >> scale;
+  in.get();
+  if (magic != "PF" || w <= 0 || h <= 0 || w > 65536 || h > 65536 || scale == 0.0)
+    throw InputError(SourceLocation{path}, "not a colour PFM image");
+  if (scale > 0.0) throw InputError(SourceLocation{path}, "big-endian PFM is not supported");
+  Image img(w, h);
+  for (int y = h - 1; y >= 0; --y)
+    if (!in.read(reinterpret_cast<char*>(&img.rgb[3 * static_cast<size_t>(y) * w]),
+                 static_cast<std::streamsize>(3 * sizeof(float) * w)))
+      throw InputError(SourceLocation{path}, "the PFM image is truncated");
+  return img;
+}
+
+void write_oiio(const Image& image, const std::string& path, bool png, double exposure) {
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) throw std::runtime_error("cannot create " + path + ": " + OIIO::geterror());
+  OIIO::ImageSpec spec(image.width, image.height, 3, png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::HALF);
+  if (!out->open(path, spec)) throw std::runtime_error("cannot create " + path + ": " + out->geterror());
+  bool ok;
+  if (png) {
+    std::vector<unsigned char> bytes(image.rgb.size());
+    for (size_t k = 0; k < image.rgb.size(); ++k)
+      bytes[k] = static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[k] * exposure)));
+    ok = out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+  } else {
+    ok = out->write_image(OIIO::TypeDesc::FLOAT, image.rgb.data());
+  }
+  if (!ok) throw std::runtime_error("cannot write " + path + ": " + out->geterror());
+  if (!out->close()) throw std::runtime_error("cannot write " + path + ": " + out->geterror());
+}
+
+}  // namespace
+
+bool Image::all_finite() const {
+  return std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v); });
+}
+
+std::array<unsigned char, 3> to_srgb8(const Rgb& c, double exposure) {
+  std::array<unsigned char, 3> out;
+  for (int k = 0; k < 3; ++k)
+    out[k] = static_cast<unsigned char>(std::lround(255.0 * srgb_encode(c[k] * exposure)));
+  return out;
+}
+
+bool is_image_path(const std::string& path) {
+  std::string ext = extension_of(path);
+  return ext == ".exr" || ext == ".pfm" || ext == ".png";
+}
+
+void write_image(const Image& image, const std::string& path, const ImageWriteOptions& options) {
+  std::string ext = extension_of(path);
+  if (!is_image_path(path))
+    throw InputError(SourceLocation{path}, "unknown image format '" + ext +
+                                               "' (use .exr, .pfm or .png)");
+  AtomicFile file(path);
+  if (ext == ".pfm") write_pfm(image, file.temp_path());
+  else write_oiio(image, file.temp_path(), ext == ".png", options.exposure);
+  file.commit();
+}
+
+Image read_image(const std::string& path) {
+  if (extension_of(path) == ".pfm") return read_pfm(path);
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw InputError(SourceLocation{path}, "cannot read the image: " + OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.nchannels < 3) throw InputError(SourceLocation{path}, "the image has fewer than 3 channels");
+  std::vector<float> all(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
+    throw InputError(SourceLocation{path}, "cannot read the image: " + in->geterror());
+  Image img(spec.width, spec.height);
+  for (size_t p = 0; p < static_cast<size_t>(spec.width) * spec.height; ++p)
+    for (int c = 0; c < 3; ++c) img.rgb[3 * p + c] = all[p * spec.nchannels + c];
+  return img;
+}
+
+}  // namespace polyrad

@@ -1,0 +1,212 @@
+// Camera gather (camera_gather.h).
+#include "polyrad/camera_gather.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "polyrad/brdf.h"
+#include "polyrad/progress.h"
+#include "polyrad/sampling.h"
+
+namespace polyrad {
+
+namespace {
+
+struct Term {
+  std::int32_t column;
+  Rgbf w;
+};
+
+// For smooth shading: each patch corner as a weighted average of patches (same object, normals
+// within 10 degrees) that share the welded corner.
+class CornerAverages {
+ public:
+  explicit CornerAverages(const PatchSet& patches) : patches_(patches) {
+    std::vector<std::vector<PatchId>> by_vertex(patches.vertex_ids);
+    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+      for (int c = 0; c < patches[p].corners; ++c) {
+        auto& list = by_vertex[patches[p].vertex_id[c]];
+        if (list.empty() || list.back() != p) list.push_back(p);
+      }
+    start_.assign(4 * patches.size() + 1, 0);
+    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p) {
+      for (int c = 0; c < 4; ++c) {
+        const auto& list = by_vertex[patches[p].vertex_id[std::min(c, patches[p].corners - 1)]];
+        double total = 0.0;
+        size_t first = entries_.size();
+        for (PatchId q : list) {
+          if (patches[q].normal.dot(patches[p].normal) < std::cos(10.0 * kPi / 180.0)) continue;
+          entries_.push_back({q, patches[q].area});
+          total += patches[q].area;
+        }
+        for (size_t e = first; e < entries_.size(); ++e) entries_[e].second /= total;
+        start_[4 * p + c + 1] = entries_.size();
+      }
+    }
+  }
+
+  // Adds w * (smoothly interpolated B at (u, v) on p) to terms.
+  void add(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
+    auto cw = patches_[p].corner_weights(u, v);
+    for (int c = 0; c < 4; ++c) {
+      if (cw[c] == 0.0) continue;
+      for (auto e = start_[4 * p + c]; e < start_[4 * p + c + 1]; ++e) {
+        float s = static_cast<float>(cw[c] * entries_[e].second);
+        terms.push_back({entries_[e].first, {w[0] * s, w[1] * s, w[2] * s}});
+      }
+    }
+  }
+
+ private:
+  const PatchSet& patches_;
+  std::vector<std::size_t> start_;
+  std::vector<std::pair<PatchId, double>> entries_;
+};
+
+Rgbf scaled(const Rgb& c, double s) {
+  return {static_cast<float>(c[0] * s), static_cast<float>(c[1] * s), static_cast<float>(c[2] * s)};
+}
+
+class PixelGatherer {
+ public:
+  PixelGatherer(const Camera& camera, const PatchSet& patches, const std::vector<Material>& materials,
+                const RayCaster& caster, const TransportOperator& t, const GatherOptions& o,
+                const CornerAverages& corners)
+      : camera_(camera), patches_(patches), materials_(materials), caster_(caster), t_(t), o_(o),
+        corners_(corners) {}
+
+  // The terms of pixel (x, y); returns the number of rays cast.
+  long long gather(int x, int y, std::vector<Term>& terms) const {
+    terms.clear();
+    long long rays = 0;
+    int n = o_.pixel_grid;
+    double share = 1.0 / (n * n);
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        Ray ray = camera_.ray(x + (a + 0.5) / n, y + (b + 0.5) / n);
+        ++rays;
+        Hit hit = caster_.intersect(ray.origin, ray.direction);
+        if (!hit.valid() || !hit.front) continue;
+        add_diffuse(hit, Rgbf{float(share), float(share), float(share)}, terms);
+        if (o_.specular)
+          rays += add_specular(hit, ray, share, static_cast<std::uint64_t>(y) * camera_.width + x,
+                               a * n + b, terms);
+      }
+    return rays;
+  }
+
+ private:
+  void add_diffuse(const Hit& hit, const Rgbf& w, std::vector<Term>& terms) const {
+    if (o_.diffuse == DiffuseMode::kSmooth) corners_.add(hit.patch, hit.u, hit.v, w, terms);
+    else terms.push_back({hit.patch, w});
+  }
+
+  // Radiance arriving at i from the patch met along a lobe direction: s_i beta (B_j + S_{j->i}).
+  long long add_specular(const Hit& hit, const Ray& ray, double share, std::uint64_t pixel,
+                         int sub, std::vector<Term>& terms) const {
+    const Patch& p = patches_[hit.patch];
+    const Material& m = materials_[p.material];
+    if (!m.has_lobe()) return 0;
+    Frame frame = Frame::from_normal(p.normal);
+    Vec3 wo = frame.to_local(-ray.direction);
+    Vec3 x = ray.origin + hit.t * ray.direction;
+    int count = m.is_delta() ? 1 : o_.lobe_samples;
+    int side = std::max(1, static_cast<int>(std::lround(std::sqrt(count))));
+    count = m.is_delta() ? 1 : side * side;
+    Rng rng(o_.seed, pixel, sub);
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      Vec2 u((s % side + rng.uniform()) / side, (s / side + rng.uniform()) / side);
+      LobeSample ls = m.lobe_sample(wo, u);
+      if (ls.weight <= 0.0) continue;
+      Vec3 dir = frame.to_world(ls.wi);
+      ++rays;
+      Hit h = caster_.intersect(x, dir, caster_.epsilon());
+      if (!h.valid() || !h.front) continue;
+      Rgbf w = scaled(m.specular, share * ls.weight / count);
+      add_diffuse(h, w, terms);
+      Eigen::Index link = t_.link_unknown(h.patch, hit.patch);
+      if (link >= 0) terms.push_back({static_cast<std::int32_t>(link), w});
+    }
+    return rays;
+  }
+
+  const Camera& camera_;
+  const PatchSet& patches_;
+  const std::vector<Material>& materials_;
+  const RayCaster& caster_;
+  const TransportOperator& t_;
+  const GatherOptions& o_;
+  const CornerAverages& corners_;
+};
+
+void merge_terms(std::vector<Term>& terms) {
+  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.column < b.column; });
+  size_t w = 0;
+  for (size_t r = 0; r < terms.size(); ++r) {
+    if (w > 0 && terms[w - 1].column == terms[r].column) {
+      for (int c = 0; c < 3; ++c) terms[w - 1].w[c] += terms[r].w[c];
+    } else {
+      terms[w++] = terms[r];
+    }
+  }
+  terms.resize(w);
+}
+
+}  // namespace
+
+Gather build_gather(const Camera& camera, const PatchSet& patches,
+                    const std::vector<Material>& materials, const RayCaster& caster,
+                    const TransportOperator& t, const GatherOptions& options) {
+  auto t0 = std::chrono::steady_clock::now();
+  CornerAverages corners(patches);
+  PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners);
+  const int w = camera.width, h = camera.height;
+  std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);
+  long long rays = 0;
+  Progress progress("camera gather", h);
+#pragma omp parallel
+  {
+    std::vector<Term> terms;
+#pragma omp for schedule(dynamic, 1) reduction(+ : rays)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        rays += gatherer.gather(x, y, terms);
+        merge_terms(terms);
+        rows[static_cast<size_t>(y) * w + x] = terms;
+      }
+      progress.advance();
+    }
+  }
+  progress.finish();
+  Gather g;
+  g.width = w;
+  g.height = h;
+  g.g.cols = t.size();
+  for (const auto& row : rows) {
+    for (const auto& term : row) {
+      g.g.column.push_back(term.column);
+      g.g.value.push_back(term.w);
+    }
+    g.g.push_row();
+  }
+  g.rays = rays;
+  g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return g;
+}
+
+Image apply_gather(const Gather& gather, const Field& u) {
+  Image img(gather.width, gather.height);
+  const auto& g = gather.g;
+#pragma omp parallel for schedule(static)
+  for (std::int64_t p = 0; p < g.rows; ++p) {
+    double a[3] = {0.0, 0.0, 0.0};
+    for (auto k = g.start[p]; k < g.start[p + 1]; ++k)
+      for (int c = 0; c < 3; ++c) a[c] += g.value[k][c] * u(g.column[k], c);
+    for (int c = 0; c < 3; ++c) img.rgb[3 * p + c] = static_cast<float>(a[c]);
+  }
+  return img;
+}
+
+}  // namespace polyrad
