@@ -1,0 +1,125 @@
+// polyrad render SCENE -o IMAGE [--method iterative] ...
+#include <chrono>
+#include <cstdio>
+
+#include "cli_common.h"
+#include "polyrad/camera_gather.h"
+#include "polyrad/files.h"
+#include "polyrad/image.h"
+#include "polyrad/scene.h"
+
+namespace polyrad::cli {
+
+namespace {
+
+struct RenderFlags {
+  std::string scene, output, report, patches_csv;
+  std::string method = "iterative";
+  std::string solver = "gauss-seidel";
+  std::string diffuse = "smooth";
+  double tolerance = 1e-4;
+  int max_iterations = 10000;
+  int pixel_grid = 2;
+  int lobe_samples = 16;
+  double exposure = 1.0;
+  SystemFlags system;
+};
+
+int run_render(const RenderFlags& f) {
+  check_image_path(f.output);
+  if (!f.report.empty()) check_output_path(f.report, "report");
+  if (!f.patches_csv.empty()) check_output_path(f.patches_csv, "patch table");
+  auto t0 = std::chrono::steady_clock::now();
+
+  Scene scene = load_scene(f.scene, f.system.scene_options());
+  double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  auto sys = build_system(std::move(scene), f.system.pipeline());
+
+  SolveOptions so;
+  so.method = f.solver == "jacobi" ? SolveMethod::kJacobi : SolveMethod::kGaussSeidel;
+  so.tolerance = f.tolerance;
+  so.max_iterations = f.max_iterations;
+  SolveResult result = solve(sys->transport, sys->transport.emission(), so);
+  if (result.status == SolveStatus::kDiverged || !result.u.allFinite())
+    throw NumericalError(result.message.empty() ? "the solution is not finite" : result.message);
+  if (result.status == SolveStatus::kNotConverged) throw NumericalError(result.message);
+
+  GatherOptions go;
+  go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
+  go.pixel_grid = f.pixel_grid;
+  go.lobe_samples = f.lobe_samples;
+  go.specular = !f.system.classic;
+  Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
+                               sys->transport, go);
+  auto tg = std::chrono::steady_clock::now();
+  Image image = apply_gather(gather, result.u);
+  double apply_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tg).count();
+  if (!image.all_finite()) throw NumericalError("the image has non-finite pixels");
+
+  write_image(image, f.output, ImageWriteOptions{f.exposure});
+  if (!f.patches_csv.empty()) write_patch_csv(f.patches_csv, *sys, result.u);
+  if (!f.report.empty()) {
+    JsonWriter w;
+    w.begin_object();
+    w.value("command", "render").value("method", f.method);
+    write_system(w, *sys);
+    write_solve(w, result);
+    std::vector<StageTime> times{{"load", load_seconds}};
+    times.insert(times.end(), sys->times.begin(), sys->times.end());
+    times.push_back({"solve", result.seconds});
+    times.push_back({"gather_build", gather.seconds});
+    times.push_back({"gather_apply", apply_seconds});
+    write_stage_times(w, times);
+    w.value("gather_nnz", static_cast<long long>(gather.g.nnz()));
+    w.value("gather_bytes", gather.bytes());
+    w.value("peak_memory_bytes", peak_memory_bytes());
+    w.value("machine", machine_description());
+    w.end_object();
+    write_file_atomic(f.report, w.str());
+  }
+  std::fprintf(stderr, "polyrad: %zu patches, %lld unknowns, %s in %d sweeps (residual %.2e); wrote %s\n",
+               sys->patches.size(), static_cast<long long>(sys->transport.size()),
+               solve_status_name(result.status), result.iterations, result.residual,
+               f.output.c_str());
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_render_command(CLI::App& app, int& exit_code) {
+  auto flags = std::make_shared<RenderFlags>();
+  CLI::App* cmd = app.add_subcommand("render", "Render a scene to a linear-radiance image");
+  cmd->add_option("scene", flags->scene, "Scene file (JSON)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--output", flags->output, "Image: .exr or .pfm (linear), .png (tonemapped)")
+      ->required();
+  cmd->add_option("--method", flags->method, "Solution method")
+      ->check(CLI::IsMember({"iterative"}))
+      ->capture_default_str();
+  cmd->add_option("--solver", flags->solver, "Iterative solver")
+      ->check(CLI::IsMember({"gauss-seidel", "jacobi"}))
+      ->capture_default_str();
+  cmd->add_option("--tolerance", flags->tolerance, "Relative residual to stop at")
+      ->check(CLI::Range(1e-14, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", flags->max_iterations, "Sweep limit")
+      ->check(CLI::Range(1, 100000000))
+      ->capture_default_str();
+  cmd->add_option("--report", flags->report, "Write a JSON report here");
+  cmd->add_option("--patches", flags->patches_csv, "Write one CSV row per patch here");
+  cmd->add_option("--diffuse", flags->diffuse, "Diffuse shading in the image")
+      ->check(CLI::IsMember({"smooth", "flat"}))
+      ->capture_default_str();
+  cmd->add_option("--pixel-grid", flags->pixel_grid, "Sub-pixel rays per side")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  cmd->add_option("--lobe-samples", flags->lobe_samples, "Gather samples of a glossy lobe")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  cmd->add_option("--exposure", flags->exposure, "Exposure of the .png tonemap")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  flags->system.add(*cmd);
+  cmd->callback([flags, &exit_code] { exit_code = run_render(*flags); });
+}
+
+}  // namespace polyrad::cli
