@@ -1,0 +1,133 @@
+// Form factors against the closed forms of METHOD.md section 8.
+#include "polyrad/form_factors.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include "polyrad/pipeline.h"
+#include "test_support.h"
+
+namespace polyrad {
+namespace {
+
+using test::make_quad;
+
+// Two directly opposed a x b rectangles, distance c, facing each other.
+PatchSet opposed(double a, double b, double c) {
+  return test::make_patch_set({make_quad({0, 0, 0}, {a, 0, 0}, {a, b, 0}, {0, b, 0}),
+                               make_quad({0, 0, c}, {0, b, c}, {a, b, c}, {a, 0, c})});
+}
+
+// Rectangle w x l on the floor (z = 0) and h x l standing on the shared edge x = 0.
+PatchSet perpendicular(double l, double w, double h) {
+  return test::make_patch_set({make_quad({0, 0, 0}, {w, 0, 0}, {w, l, 0}, {0, l, 0}),
+                               make_quad({0, 0, 0}, {0, l, 0}, {0, l, h}, {0, 0, h})});
+}
+
+double ff01(const PatchSet& ps) {
+  RayCaster caster(ps);
+  FormFactors ff = compute_form_factors(ps, caster);
+  return ff.at(0, 1);
+}
+
+TEST(FormFactors, ParallelUnitSquaresAtDistanceOne) {
+  EXPECT_NEAR(test::parallel_rectangles_ff(1, 1, 1), 0.199825, 1e-6);  // the formula itself
+  EXPECT_NEAR(ff01(opposed(1, 1, 1)), 0.199825, 1e-3);
+}
+
+TEST(FormFactors, PerpendicularUnitSquaresSharingAnEdge) {
+  EXPECT_NEAR(test::perpendicular_rectangles_ff(1, 1, 1), 0.200044, 1e-6);
+  EXPECT_NEAR(ff01(perpendicular(1, 1, 1)), 0.200044, 1e-3);
+}
+
+TEST(FormFactors, ClosedFormsOverShapes) {
+  for (double c : {0.25, 0.5, 2.0, 5.0})
+    for (double b : {0.5, 1.0, 3.0})
+      EXPECT_NEAR(ff01(opposed(1.0, b, c)), test::parallel_rectangles_ff(1.0, b, c),
+                  2e-3 * test::parallel_rectangles_ff(1.0, b, c))
+          << "b " << b << " c " << c;
+  for (double w : {0.2, 1.0, 4.0})
+    for (double h : {0.3, 1.0, 2.5})
+      EXPECT_NEAR(ff01(perpendicular(1.0, w, h)), test::perpendicular_rectangles_ff(1.0, w, h),
+                  2e-3 * test::perpendicular_rectangles_ff(1.0, w, h))
+          << "w " << w << " h " << h;
+}
+
+TEST(FormFactors, EitherPatchAsOuterGivesTheSameAreaFormFactor) {
+  // The estimator integrates over one patch; integrating over the other must give the same
+  // A_a F_ab, the exact one (floor 1 x 2, wall 0.5 x 2 on the shared edge of length 2).
+  FormFactorOptions o;
+  Patch a = make_quad({0, 0, 0}, {1, 0, 0}, {1, 2, 0}, {0, 2, 0});
+  Patch b = make_quad({0, 0, 0}, {0, 2, 0}, {0, 2, 0.5}, {0, 0, 0.5});
+  double exact = a.area * test::perpendicular_rectangles_ff(2.0, 1.0, 0.5);
+  EXPECT_NEAR(pair_area_form_factor(a, b, nullptr, o, 0), exact, 5e-4 * exact);
+  EXPECT_NEAR(pair_area_form_factor(b, a, nullptr, o, 0), exact, 5e-4 * exact);
+}
+
+TEST(FormFactors, BackToBackAndCoplanarPatchesSeeNothing) {
+  FormFactorOptions o;
+  Patch up = make_quad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0});
+  Patch beside = make_quad({1, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0});
+  Patch below_facing_down = make_quad({0, 0, -1}, {0, 1, -1}, {1, 1, -1}, {1, 0, -1});
+  EXPECT_EQ(pair_area_form_factor(up, beside, nullptr, o, 0), 0.0);
+  EXPECT_EQ(pair_area_form_factor(up, below_facing_down, nullptr, o, 0), 0.0);
+}
+
+TEST(FormFactors, OccluderHalvesTheView) {
+  // A large blocker between two small opposed squares hides them from each other entirely;
+  // one that covers half of the upper square's x-range removes about half the exchange.
+  PatchSet open = opposed(1, 1, 1);
+  auto with = [&](Patch blocker) {
+    auto patches = open.patches;
+    patches.push_back(blocker);
+    return test::make_patch_set(patches);
+  };
+  Patch full = make_quad({-5, -5, 0.5}, {5, -5, 0.5}, {5, 5, 0.5}, {-5, 5, 0.5});
+  EXPECT_EQ(ff01(with(full)), 0.0);
+  Patch half = make_quad({-5, -5, 0.99}, {0.5, -5, 0.99}, {0.5, 5, 0.99}, {-5, 5, 0.99});
+  double f = ff01(with(half));
+  EXPECT_GT(f, 0.35 * 0.199825);
+  EXPECT_LT(f, 0.65 * 0.199825);
+}
+
+TEST(FormFactors, ClosedBoxRowsSumToOne) {
+  Scene s = test::scene_from_json(test::closed_box_json(
+      Vec3(1.0, 0.8, 1.3), 0.2, R"({"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]})", 1.0));
+  auto sys = build_system(std::move(s));
+  double worst = 0.0;
+  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches.size()); ++i)
+    worst = std::max(worst, std::abs(sys->form_factors.row_sum(i) - 1.0));
+  EXPECT_LT(worst, 2e-3);
+}
+
+TEST(FormFactors, ReciprocityOnTheCornellBox) {
+  auto sys = build_system(load_scene(test::scene_path("cornell-box")));
+  const auto& f = sys->form_factors.f;
+  const auto& p = sys->patches;
+  long long checked = 0;
+  for (PatchId i = 0; i < static_cast<PatchId>(p.size()); ++i)
+    for (auto k = f.start[i]; k < f.start[i + 1]; ++k) {
+      PatchId j = f.column[k];
+      double fji = sys->form_factors.at(j, i);
+      ASSERT_GT(fji, 0.0) << i << " sees " << j << " but not the reverse";
+      EXPECT_NEAR(p[i].area * f.value[k], p[j].area * fji, 1e-6 * p[i].area * f.value[k]);
+      ++checked;
+    }
+  EXPECT_GT(checked, 100000);
+}
+
+TEST(FormFactors, SameNumbersOnOneOrTwoThreads) {
+  auto build = [](int threads) {
+    omp_set_num_threads(threads);
+    auto sys = build_system(load_scene(test::scene_path("cornell-box")), PipelineOptions{});
+    omp_set_num_threads(omp_get_num_procs());
+    return sys->form_factors.f.value;
+  };
+  auto one = build(1);
+  auto two = build(2);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_TRUE(one == two);
+}
+
+}  // namespace
+}  // namespace polyrad

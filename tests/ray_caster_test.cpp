@@ -1,0 +1,58 @@
+#include "polyrad/ray_caster.h"
+
+#include <gtest/gtest.h>
+
+#include "test_support.h"
+
+namespace polyrad {
+namespace {
+
+PatchSet two_patches() {
+  Patch floor = test::make_quad({0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0});  // faces +y
+  Patch tri;
+  tri.corners = 3;
+  tri.corner = {Vec3(0, 1, 0), Vec3(1, 1, 0), Vec3(0, 1, 1), Vec3(0, 1, 1)};  // faces -y
+  tri.normal = Vec3(0, -1, 0);
+  tri.area = 0.5;
+  tri.centroid = Vec3(1.0 / 3, 1, 1.0 / 3);
+  return test::make_patch_set({floor, tri});
+}
+
+TEST(RayCaster, HitsTheNearestPatchWithItsParameters) {
+  PatchSet ps = two_patches();
+  RayCaster rc(ps);
+  Hit down = rc.intersect(Vec3(0.25, 0.5, 0.6), Vec3(0, -1, 0));
+  ASSERT_TRUE(down.valid());
+  EXPECT_EQ(down.patch, 0);
+  EXPECT_NEAR(down.t, 0.5, 1e-6);
+  EXPECT_TRUE(down.front);
+  EXPECT_TRUE((ps[0].point(down.u, down.v) - Vec3(0.25, 0, 0.6)).norm() < 1e-5);
+
+  Hit up = rc.intersect(Vec3(0.2, 0.5, 0.3), Vec3(0, 1, 0));
+  ASSERT_TRUE(up.valid());
+  EXPECT_EQ(up.patch, 1);
+  EXPECT_TRUE(up.front);
+  EXPECT_TRUE((ps[1].point(up.u, up.v) - Vec3(0.2, 1, 0.3)).norm() < 1e-5);
+
+  Hit back = rc.intersect(Vec3(0.5, -1, 0.5), Vec3(0, 1, 0));
+  ASSERT_TRUE(back.valid());
+  EXPECT_EQ(back.patch, 0);
+  EXPECT_FALSE(back.front);
+
+  EXPECT_FALSE(rc.intersect(Vec3(0.9, 0.5, 0.9), Vec3(0, 1, 0)).valid());  // beside the triangle
+  EXPECT_FALSE(rc.intersect(Vec3(0.5, 0.5, 0.5), Vec3(1, 0, 0)).valid());
+}
+
+TEST(RayCaster, OcclusionRespectsTheSegment) {
+  PatchSet ps = two_patches();
+  RayCaster rc(ps);
+  EXPECT_TRUE(rc.segment_occluded(Vec3(0.2, -1, 0.2), Vec3(0.2, 0.5, 0.2)));
+  EXPECT_FALSE(rc.segment_occluded(Vec3(0.2, 0.1, 0.2), Vec3(0.2, 0.9, 0.2)));
+  // From a point on the floor to a point on the triangle: the end points do not block.
+  EXPECT_FALSE(rc.segment_occluded(Vec3(0.2, 0, 0.2), Vec3(0.2, 1, 0.2)));
+  EXPECT_TRUE(rc.occluded(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0)));
+  EXPECT_FALSE(rc.occluded(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0), 0.0, 0.5));
+}
+
+}  // namespace
+}  // namespace polyrad

@@ -1,0 +1,40 @@
+// Helpers shared by the test programs: temporary folders, scenes built from text, patches.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "polyrad/mesher.h"
+#include "polyrad/scene.h"
+
+namespace polyrad::test {
+
+// A fresh empty directory under the system's temporary folder, removed at exit.
+std::filesystem::path temp_dir();
+
+// Writes text to dir/name and returns the path.
+std::string write_file(const std::filesystem::path& dir, const std::string& name,
+                       const std::string& text);
+
+// Loads a scene from JSON text (written to a temporary file so mesh paths resolve there).
+Scene scene_from_json(const std::string& json, const std::filesystem::path& dir = {});
+
+std::string scene_path(const std::string& name);  // scenes/<name>.json of the source tree
+
+// A patch from four corners (counter-clockwise seen from the front).
+Patch make_quad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+PatchSet make_patch_set(std::vector<Patch> patches);
+
+// JSON of a closed axis-aligned box [0,sx]x[0,sy]x[0,sz] with inward faces, every face of
+// material "m" (JSON text of the material) and emission e, patch size p. The camera sits inside.
+std::string closed_box_json(const Vec3& size, double patch_size, const std::string& material,
+                            double emission);
+
+// The form factor of two directly opposed parallel a x b rectangles at distance c
+// (METHOD.md section 8) and of perpendicular rectangles sharing an edge of length l, from the
+// w-side to the h-side.
+double parallel_rectangles_ff(double a, double b, double c);
+double perpendicular_rectangles_ff(double l, double w, double h);
+
+}  // namespace polyrad::test
