@@ -27,6 +27,10 @@ struct Patch {
   Vec3 centroid = Vec3::Zero();
   Vec3 normal = Vec3::Zero();  // unit, out of the front side
   double area = 0.0;
+  // How far a corner lies off the mean plane (0 for a planar patch). A bent quad's bilinear
+  // surface (Patch::point) and the ray caster's two triangles both lie within this distance of
+  // that plane, so rays that start on the patch are lifted by it (RayCaster::intersect_from).
+  double bend = 0.0;
   ObjectId object = 0;
   MaterialId material = 0;
   Rgb emission = Rgb::Zero();  // Lambertian radiance of the front side

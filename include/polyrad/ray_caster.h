@@ -25,6 +25,7 @@ struct Hit {
   double t = 0.0;      // distance along the ray in units of |direction|
   double u = 0.0, v = 0.0;  // parameters on the patch (Patch::point)
   bool front = false;       // the ray met the patch's front side
+  Vec3 position = Vec3::Zero();  // where (origin + t direction)
   bool valid() const { return patch >= 0; }
 };
 
@@ -45,6 +46,16 @@ class RayCaster {
   double epsilon() const { return epsilon_; }
   // True if anything blocks the open segment between surface points a and b.
   bool segment_occluded(const Vec3& a, const Vec3& b) const;
+  // The same between points on patches pa and pb: each end is first lifted off its patch toward
+  // the other by epsilon() plus the patch's bend, so that a point near a shared edge cannot see
+  // past the adjacent wall, and a point of a bent quad cannot be hidden by its own patch.
+  bool segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, PatchId pb) const;
+  bool segment_occluded(const Vec3& a, const Patch& pa, const Vec3& b, const Patch& pb) const;
+  // A ray leaving point x of patch p along d: the origin is lifted the same way to the side d
+  // leaves on, and the ray starts there (tnear 0). Hit::t counts from the lifted origin.
+  Hit intersect_from(const Vec3& x, PatchId p, const Vec3& d) const;
+  // The distance a point of patch p is lifted: epsilon() + its bend.
+  double lift(const Patch& p) const { return epsilon_ + p.bend; }
 
  private:
   struct Impl;

@@ -190,6 +190,8 @@ PatchSet mesh_scene(const Scene& scene) {
           double a023 = 0.5 * (p.corner[2] - p.corner[0]).cross(p.corner[3] - p.corner[0]).norm();
           p.centroid = (a012 * c012 + a023 * c023) / (a012 + a023);
         }
+        for (int c = 0; c < p.corners; ++c)
+          p.bend = std::max(p.bend, std::abs((p.corner[c] - p.centroid).dot(p.normal)));
         p.object = static_cast<ObjectId>(o);
         p.material = obj.material;
         p.emission = obj.emission;

@@ -93,6 +93,7 @@ Hit RayCaster::intersect(const Vec3& origin, const Vec3& direction, double tnear
   hit.u = rh.hit.u;
   hit.v = rh.hit.v;
   hit.front = direction.dot(patches_[hit.patch].normal) < 0.0;
+  hit.position = origin + hit.t * direction;
   return hit;
 }
 
@@ -120,6 +121,29 @@ bool RayCaster::occluded(const Vec3& origin, const Vec3& direction, double tnear
 }  // namespace polyrad
 
 namespace polyrad {
+
+namespace {
+Vec3 lifted(const Vec3& x, const Vec3& n, const Vec3& toward, double distance) {
+  return x + (n.dot(toward) >= 0.0 ? distance : -distance) * n;
+}
+}  // namespace
+
+bool RayCaster::segment_occluded(const Vec3& a, const Patch& pa, const Vec3& b,
+                                 const Patch& pb) const {
+  Vec3 d = b - a;
+  double la = lift(pa), lb = lift(pb);
+  if (d.norm() <= 2.0 * (la + lb)) return false;
+  Vec3 a1 = lifted(a, pa.normal, d, la), b1 = lifted(b, pb.normal, -d, lb);
+  return occluded(a1, b1 - a1, 0.0, 1.0);
+}
+
+bool RayCaster::segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, PatchId pb) const {
+  return segment_occluded(a, patches_[pa], b, patches_[pb]);
+}
+
+Hit RayCaster::intersect_from(const Vec3& x, PatchId p, const Vec3& d) const {
+  return intersect(lifted(x, patches_[p].normal, d, lift(patches_[p])), d, 0.0);
+}
 
 bool RayCaster::segment_occluded(const Vec3& a, const Vec3& b) const {
   Vec3 d = b - a;

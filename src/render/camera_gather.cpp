@@ -122,7 +122,7 @@ class PixelGatherer {
       if (ls.weight <= 0.0) continue;
       Vec3 dir = frame.to_world(ls.wi);
       ++rays;
-      Hit h = caster_.intersect(x, dir, caster_.epsilon());
+      Hit h = caster_.intersect_from(x, hit.patch, dir);
       if (!h.valid() || !h.front) continue;
       Rgbf w = scaled(m.specular, share * ls.weight / count);
       add_diffuse(h, w, terms);

@@ -218,7 +218,7 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
         kernel_sum += k;
         if (k <= 0.0) continue;
         if (rays_cast) ++*rays_cast;
-        if (!caster->segment_occluded(x, y)) kernel_visible += k;
+        if (!caster->segment_occluded(x, a, y, b)) kernel_visible += k;
       }
       visible = kernel_sum > 0.0 ? kernel_visible / kernel_sum : 1.0;
     }
