@@ -81,6 +81,11 @@ PatchSet make_patch_set(std::vector<Patch> patches) {
 
 std::string closed_box_json(const Vec3& size, double patch_size, const std::string& material,
                             double emission) {
+  return closed_box_json(size, patch_size, std::vector<std::string>(6, material), emission);
+}
+
+std::string closed_box_json(const Vec3& size, double patch_size,
+                            const std::vector<std::string>& face_materials, double emission) {
   double x = size.x(), y = size.y(), z = size.z();
   auto pt = [](double a, double b, double c) {
     std::ostringstream s;
@@ -99,10 +104,12 @@ std::string closed_box_json(const Vec3& size, double patch_size, const std::stri
   std::ostringstream s;
   s << "{\"camera\": {\"position\": " << pt(x / 2, y / 2, z * 0.05) << ", \"look_at\": "
     << pt(x / 2, y / 2, z) << ", \"fov_deg\": 90, \"width\": 32, \"height\": 32},\n"
-    << "\"patch_size\": " << patch_size << ",\n\"materials\": {\"m\": " << material << "},\n"
-    << "\"objects\": [\n";
+    << "\"patch_size\": " << patch_size << ",\n\"materials\": {";
   for (size_t f = 0; f < faces.size(); ++f)
-    s << "{\"name\": \"" << faces[f].name << "\", \"material\": \"m\", \"emission\": ["
+    s << "\"m" << f << "\": " << face_materials.at(f) << (f + 1 < faces.size() ? ", " : "");
+  s << "},\n\"objects\": [\n";
+  for (size_t f = 0; f < faces.size(); ++f)
+    s << "{\"name\": \"" << faces[f].name << "\", \"material\": \"m" << f << "\", \"emission\": ["
       << emission << ", " << emission << ", " << emission << "], \"polygon\": [" << faces[f].poly
       << "]}" << (f + 1 < faces.size() ? "," : "") << "\n";
   s << "]}\n";
@@ -127,6 +134,30 @@ double perpendicular_rectangles_ff(double l, double w, double h) {
   return 1.0 / (kPi * W) *
          (W * std::atan(1 / W) + H * std::atan(1 / H) - s * std::atan(1 / s) +
           0.25 * std::log(a * b * c));
+}
+
+}  // namespace polyrad::test
+
+namespace polyrad::test {
+
+double parallel_offset_rectangles_ff(double x1, double x2, double y1, double y2, double xi1,
+                                     double xi2, double eta1, double eta2, double c) {
+  // A1 F12 = 1/(2 pi) sum (-1)^(i+j+k+l) G(x_i - xi_k, y_j - eta_l), with
+  // G(u, v) = v sqrt(u^2 + c^2) atan(v / sqrt(u^2 + c^2)) + u sqrt(v^2 + c^2) atan(u / sqrt(v^2 + c^2))
+  //           - c^2 / 2 ln(u^2 + v^2 + c^2).
+  auto g = [c](double u, double v) {
+    double su = std::sqrt(u * u + c * c), sv = std::sqrt(v * v + c * c);
+    return v * su * std::atan(v / su) + u * sv * std::atan(u / sv) -
+           0.5 * c * c * std::log(u * u + v * v + c * c);
+  };
+  double xs[2] = {x1, x2}, ys[2] = {y1, y2}, xis[2] = {xi1, xi2}, etas[2] = {eta1, eta2};
+  double sum = 0.0;
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k)
+        for (int l = 0; l < 2; ++l)
+          sum += ((i + j + k + l) % 2 == 0 ? 1.0 : -1.0) * g(xs[i] - xis[k], ys[j] - etas[l]);
+  return sum / (2.0 * kPi * (x2 - x1) * (y2 - y1));
 }
 
 }  // namespace polyrad::test

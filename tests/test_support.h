@@ -30,11 +30,25 @@ PatchSet make_patch_set(std::vector<Patch> patches);
 // material "m" (JSON text of the material) and emission e, patch size p. The camera sits inside.
 std::string closed_box_json(const Vec3& size, double patch_size, const std::string& material,
                             double emission);
+// The same box with one material per face, in the order floor, ceiling, left (x = 0),
+// right, back (z = sz), front (z = 0).
+std::string closed_box_json(const Vec3& size, double patch_size,
+                            const std::vector<std::string>& face_materials, double emission);
 
 // The form factor of two directly opposed parallel a x b rectangles at distance c
 // (METHOD.md section 8) and of perpendicular rectangles sharing an edge of length l, from the
 // w-side to the h-side.
 double parallel_rectangles_ff(double a, double b, double c);
 double perpendicular_rectangles_ff(double l, double w, double h);
+
+}  // namespace polyrad::test
+
+namespace polyrad::test {
+
+// Form factor from rectangle 1 = [x1,x2] x [y1,y2] in the plane z = 0 to the parallel
+// rectangle 2 = [xi1,xi2] x [eta1,eta2] in the plane z = c facing it, by the closed-form
+// superposition of corner contributions (valid for any lateral offset).
+double parallel_offset_rectangles_ff(double x1, double x2, double y1, double y2, double xi1,
+                                     double xi2, double eta1, double eta2, double c);
 
 }  // namespace polyrad::test

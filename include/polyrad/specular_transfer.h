@@ -7,7 +7,18 @@
 // credits the patch k it meets:
 //     R_jik = sum(w * beta * [ray hits k]) / sum(w)
 // Exact for mirrors (beta = 1), never above the lobe's albedo, so the transfer cannot create
-// energy. The seed's centre-point evaluation of rho is available as an option to compare.
+// energy.
+//
+// Reciprocity balancing (eq. 9): for one reflector i, the flux matrix M_jk = tau_ij R_jik is
+// symmetric for a reciprocal BRDF, so the flux that reaches k through i has two estimates: the
+// column sum of M (what the other sources' rays delivered to k) and k's own row sum
+// tau_ik A_k (A_k = sum_m R_kim, what k's rays found through i). They are combined by their
+// sampling variances, and the symmetrised estimate is scaled, M' = D (M + M^T)/2 D, to have the
+// combined sums as row (and so column) sums. In a closed scene k's own sum is exact, and a link
+// radiance S_{i->k} becomes exact in a uniform field instead of carrying the noise of the few
+// rays that reached k; where k's rays rarely find light, the other sources' estimate dominates.
+// Rows are finally capped at the physical bound sum_k R_jik <= 1, so energy conservation holds.
+// The seed's centre-point evaluation of rho is available as an option to compare.
 //
 //   SpecularTransfer st = compute_specular_transfer(patches, materials, ff, caster, {});
 //   for (auto e = st.start[i]; e < st.start[i + 1]; ++e) use(st.from[e], st.to[e], st.fraction[e]);
@@ -32,6 +43,7 @@ enum class SpecularEstimator {
 
 struct SpecularOptions {
   int samples = 16;  // point pairs per link pair (j -> i)
+  bool balance = true;  // reciprocity balancing (eq. 9); off only to compare
   SpecularEstimator estimator = SpecularEstimator::kMonteCarlo;
   std::uint64_t seed = 7;
 };
@@ -42,6 +54,8 @@ struct SpecularStats {
   long long pairs = 0;            // link pairs (j -> i) into non-diffuse patches
   long long pairs_unseen = 0;     // pairs with F_ij > 0 whose samples were all blocked
   double escaped_fraction = 0.0;  // weight-average share of lobe rays that hit no front face
+  long long dropped_hits = 0;     // lobe rays that met a patch with F_ik = 0 (not a link)
+  double balance_mismatch = 0.0;  // largest relative stationarity residual left by balancing
 };
 
 class SpecularTransfer {
@@ -71,10 +85,17 @@ struct TransferEntry {
   PatchId from, to;
   float fraction;
 };
+struct TransferCounters {
+  long long rays = 0;
+  long long unseen = 0;
+  long long dropped = 0;
+  double escaped = 0.0;  // sum of w * beta of rays that met no front face
+  double weight = 0.0;   // sum of w
+  double mismatch = 0.0;
+};
 void specular_entries_of(const PatchSet& patches, const Material& material, const FormFactors& ff,
                          const RayCaster& caster, const SpecularOptions& options, PatchId i,
-                         std::vector<TransferEntry>& out, long long* rays = nullptr,
-                         long long* unseen = nullptr, double* escaped = nullptr,
-                         double* weight = nullptr);
+                         std::vector<TransferEntry>& out, TransferCounters* counters = nullptr);
+
 
 }  // namespace polyrad

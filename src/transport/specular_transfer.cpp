@@ -1,9 +1,10 @@
-// The specular transfer R_jik (specular_transfer.h); eq. 8 of papers/glossy-radiosity.md.
+// The specular transfer R_jik (specular_transfer.h); eq. 8 and 9 of papers/glossy-radiosity.md.
 #include "polyrad/specular_transfer.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "polyrad/progress.h"
@@ -16,11 +17,37 @@ namespace {
 // Centre-point entries below this share of the largest are pruned: the seed's estimator is dense
 // (every k a lobe can reach), and kept only for comparison.
 constexpr double kCentrePointPrune = 1e-4;
+constexpr int kBalanceIterations = 3000;
+constexpr double kBalanceTolerance = 1e-9;
+constexpr double kLostPrior = 1e-4;
 
-void monte_carlo_entries(const PatchSet& patches, const Material& m, const FormFactors& ff,
-                         const RayCaster& caster, const SpecularOptions& o, PatchId i,
-                         std::vector<TransferEntry>& out, long long& rays, long long& unseen,
-                         double& escaped, double& weight) {
+// What the samples of one pair (j -> i) measured: the fractions R_jik, and the total reflected
+// fraction A_j with its variance (delta-method variance of the ratio sum(w y) / sum(w)).
+struct SampledPair {
+  PatchId from = 0;
+  double reflected = 0.0, reflected_variance = 0.0;
+  double effective_samples = 0.0;  // (sum w)^2 / sum w^2
+  std::vector<std::pair<PatchId, double>> fraction;  // by k
+};
+
+// Running sums of one ratio estimator sum(w y) / sum(w).
+struct RatioSums {
+  double wy = 0.0, w2y = 0.0, w2y2 = 0.0;
+  void add(double w, double y) {
+    wy += w * y;
+    w2y += w * w * y;
+    w2y2 += w * w * y * y;
+  }
+  double variance(double ratio, double w1, double w2) const {
+    return std::max(0.0, (w2y2 - 2.0 * ratio * w2y + ratio * ratio * w2) / (w1 * w1));
+  }
+};
+
+// Eq. 8 for every pair (j -> i) of reflector i; hits on patches i does not see by its form
+// factors (F_ik = 0, a sliver the form-factor rays missed) are dropped and counted.
+void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFactors& ff,
+                       const RayCaster& caster, const SpecularOptions& o, PatchId i,
+                       std::vector<SampledPair>& out, TransferCounters& counters) {
   const Patch& pi = patches[i];
   const Frame frame = Frame::from_normal(pi.normal);
   const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(o.samples))));
@@ -31,7 +58,8 @@ void monte_carlo_entries(const PatchSet& patches, const Material& m, const FormF
     const Patch& pj = patches[j];
     Rng rng(o.seed, static_cast<std::uint64_t>(i), static_cast<std::uint64_t>(j));
     hits.clear();
-    double total = 0.0, lost = 0.0;
+    RatioSums any;
+    double w1 = 0.0, w2 = 0.0, lost = 0.0;
     for (int s = 0; s < count; ++s) {
       // x stratified on P_i; y on P_j stratified with the strata shuffled by a fixed odd stride.
       int sx = s, sy = (s * 7 + 3) % count;
@@ -44,25 +72,199 @@ void monte_carlo_entries(const PatchSet& patches, const Material& m, const FormF
       double r = std::sqrt(r2);
       double cos_x = pi.normal.dot(d) / r, cos_y = -pj.normal.dot(d) / r;
       if (!(cos_x > 0.0 && cos_y > 0.0)) continue;
-      ++rays;
-      if (caster.segment_occluded(x, y)) continue;
+      ++counters.rays;
+      if (caster.segment_occluded(x, i, y, j)) continue;
       double w = cos_x * cos_y / r2 * dx * dy;  // G(x, y) V(x, y), area-density corrected
-      total += w;
+      w1 += w;
+      w2 += w * w;
       LobeSample ls = m.lobe_sample(frame.to_local(d / r), lobe_u);
       if (ls.weight <= 0.0) continue;
-      ++rays;
-      Hit h = caster.intersect(x, frame.to_world(ls.wi), caster.epsilon());
-      if (h.valid() && h.front && h.patch != i) hits[h.patch] += w * ls.weight;
-      else lost += w * ls.weight;
+      ++counters.rays;
+      Hit h = caster.intersect_from(x, i, frame.to_world(ls.wi));
+      if (h.valid() && h.front && h.patch != i && ff.at(i, h.patch) > 0.0) {
+        hits[h.patch] += w * ls.weight;
+        any.add(w, ls.weight);
+      } else {
+        if (h.valid() && h.front && h.patch != i) ++counters.dropped;
+        lost += w * ls.weight;
+      }
     }
-    if (total <= 0.0) {
-      ++unseen;
+    if (w1 <= 0.0) {
+      ++counters.unseen;
       continue;
     }
-    for (const auto& [k, v] : hits) out.push_back({j, k, static_cast<float>(v / total)});
-    escaped += lost;
-    weight += total;
+    SampledPair p;
+    p.from = j;
+    p.reflected = any.wy / w1;
+    p.reflected_variance = any.variance(p.reflected, w1, w2);
+    p.effective_samples = w1 * w1 / w2;
+    for (const auto& [k, sum] : hits) p.fraction.emplace_back(k, sum / w1);
+    out.push_back(std::move(p));
+    counters.escaped += lost;
+    counters.weight += w1;
   }
+}
+
+namespace balance {
+
+// One row of the dual problem: lambda_a with r_a(lambda) = sum_b C_ab / (lambda_a + lambda_b)
+// (+ c_aa / lambda_a on the diagonal).
+struct Row {
+  double tau = 0.0;   // tau_ia: the most the row may carry
+  double lost = 0.0;  // c_aE
+  double diag = 0.0;  // c_aa
+  double lambda = 0.0;
+  double start = 0.0;  // n_a / tau_a, where the ascent begins
+  bool observed = false;
+  std::vector<std::pair<int, double>> partner;  // (b, C_ab) for b != a
+};
+
+// r_a(lambda) and its derivative.
+std::pair<double, double> row_sum(const std::vector<Row>& rows, const Row& r, double lambda) {
+  double s = 0.0, ds = 0.0;
+  if (r.diag > 0.0) {
+    s = r.diag / lambda;
+    ds = -s / lambda;
+  }
+  for (const auto& [b, c] : r.partner) {
+    double q = 1.0 / (lambda + rows[b].lambda);
+    s += c * q;
+    ds -= c * q * q;
+  }
+  return {s, ds};
+}
+
+// Solves row a's stationarity condition for lambda_a, the others fixed:
+//   lost > 0:  lambda (tau - r(lambda)) = lost     (lambda > 0)
+//   lost = 0:  r(lambda) = tau                      (any lambda keeping denominators positive)
+// Both residuals decrease as lambda falls toward the pole where a denominator vanishes and
+// r -> infinity, and grow past zero as lambda rises, so a bracket exists; safeguarded Newton
+// finds the root in a few steps.
+double solve_row(const std::vector<Row>& rows, const Row& r) {
+  double pole = r.diag > 0.0 ? 0.0 : -std::numeric_limits<double>::infinity();
+  for (const auto& [b, c] : r.partner) pole = std::max(pole, -rows[b].lambda);
+  if (r.lost > 0.0) pole = std::max(pole, 0.0);
+  // residual > 0: lambda too large is impossible here; residual < 0 means lambda too small.
+  auto residual = [&](double lambda) -> std::pair<double, double> {
+    auto [sum, dsum] = row_sum(rows, r, lambda);
+    if (r.lost <= 0.0) return {r.tau - sum, -dsum};
+    return {lambda * (r.tau - sum) - r.lost, (r.tau - sum) - lambda * dsum};
+  };
+  // Bracket [lo, hi] with residual(lo) < 0 < residual(hi).
+  double scale = std::max({std::abs(r.lambda), std::abs(r.start), 1e-300});
+  double lo = std::isfinite(pole) ? pole : r.lambda - scale;
+  while (!std::isfinite(pole) && residual(lo).first >= 0.0) lo -= (scale *= 2.0);
+  double hi = std::max(r.lambda, lo) + scale;
+  while (residual(hi).first <= 0.0) hi += (scale *= 2.0);
+  double x = std::clamp(r.lambda, lo, hi);
+  if (x <= lo || x >= hi) x = 0.5 * (lo + hi);
+  for (int it = 0; it < 100; ++it) {
+    auto [f, df] = residual(x);
+    if (f == 0.0) return x;
+    (f < 0.0 ? lo : hi) = x;
+    double next = df > 0.0 ? x - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - x) <= 1e-14 * std::abs(x) || next == lo || next == hi) return next;
+    x = next;
+  }
+  return x;
+}
+
+// How far row a is from its stationarity condition, relative.
+double residual_of(const std::vector<Row>& rows, const Row& r) {
+  double sum = row_sum(rows, r, r.lambda).first;
+  if (r.lost > 0.0) return std::abs(r.lambda * (r.tau - sum) / r.lost - 1.0);
+  return std::abs(sum / r.tau - 1.0);
+}
+
+bool active(const Row& r) { return r.observed && !(r.partner.empty() && r.diag <= 0.0); }
+
+// Coordinate ascent over the observed rows; returns the largest residual left.
+double ascend(std::vector<Row>& rows) {
+  double worst = 0.0;
+  for (int sweep = 0; sweep < kBalanceIterations; ++sweep) {
+    for (Row& r : rows) {
+      if (!active(r)) continue;
+      double next = solve_row(rows, r);
+      if (!std::isfinite(next)) return std::numeric_limits<double>::infinity();
+      r.lambda = next;
+    }
+    worst = 0.0;
+    for (const Row& r : rows)
+      if (active(r)) worst = std::max(worst, residual_of(rows, r));
+    if (!(worst >= kBalanceTolerance)) break;  // also leaves on NaN
+  }
+  return std::isfinite(worst) ? worst : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace balance
+
+// Eq. 9: the maximum-likelihood symmetric flux matrix of reflector i.
+//
+// Source j's n_j (effective) samples are a multinomial draw: to each k with probability
+// M_jk / tau_ij, lost (escaped, or absorbed by beta < 1) with the rest. The counts are
+// c_jk = n_j R_jik and c_jE = n_j (1 - sum_k R_jik). Maximising the likelihood over symmetric M
+// (reciprocity) gives m_jk = (c_jk + c_kj) / (lambda_j + lambda_k), with lambda_j such that
+// lambda_j (tau_ij - sum_k m_jk) = c_jE. The lambdas maximise a concave dual; coordinate ascent
+// (solve_row for each source in turn) converges to them. Rows never exceed tau_ij (energy is
+// conserved); in a closed scene, where no source loses a ray, every row, hence by symmetry every
+// column, carries what its own samples saw (up to the prior below), so each link radiance is
+// exact in a uniform field.
+double balance_reciprocity(const std::vector<SampledPair>& pairs,
+                           const std::vector<std::pair<PatchId, double>>& tau,
+                           std::vector<TransferEntry>& out) {
+  auto local = [&](PatchId p) {
+    auto it = std::lower_bound(tau.begin(), tau.end(), p,
+                               [](const auto& e, PatchId key) { return e.first < key; });
+    return static_cast<int>(it - tau.begin());
+  };
+  const int n = static_cast<int>(tau.size());
+  std::vector<balance::Row> rows(n);
+  std::map<std::pair<int, int>, double> counts;  // C_ab = c_ab + c_ba for a < b
+  for (int a = 0; a < n; ++a) rows[a].tau = tau[a].second;
+  for (const auto& p : pairs) {
+    int a = local(p.from);
+    balance::Row& r = rows[a];
+    r.observed = true;
+    r.lost = p.effective_samples * (1.0 - p.reflected);
+    if (r.lost < 1e-9 * p.effective_samples) r.lost = 0.0;  // rounding of a lossless source
+    r.start = r.lambda = p.effective_samples / r.tau;
+    for (const auto& [k, fraction] : p.fraction) {
+      int b = local(k);
+      double c = p.effective_samples * fraction;
+      if (a == b) r.diag += c;
+      else counts[{std::min(a, b), std::max(a, b)}] += c;
+    }
+  }
+  for (const auto& [ab, c] : counts) {
+    rows[ab.first].partner.emplace_back(ab.second, c);
+    rows[ab.second].partner.emplace_back(ab.first, c);
+  }
+  // Sources that lost no ray demand their rows carry all of tau exactly. Under sampling noise
+  // those demands can be jointly impossible for a symmetric matrix of the sampled pattern (two
+  // such sources seen only by each other, with different etendues); the ascent then does not
+  // settle, and a prior pseudo-count of lost rays for every source makes the problem well posed.
+  double mismatch = balance::ascend(rows);
+  if (!(mismatch < kBalanceTolerance)) {
+    for (auto& r : rows) {
+      r.lost += kLostPrior;
+      r.lambda = r.start;
+    }
+    mismatch = balance::ascend(rows);
+  }
+  for (int a = 0; a < n; ++a) {
+    const balance::Row& r = rows[a];
+    double sum = balance::row_sum(rows, r, r.lambda).first;
+    // Energy: a source's fractions never sum above 1 (all the flux it sends to i).
+    double scale = sum > r.tau ? r.tau / sum : 1.0;
+    if (r.diag > 0.0)
+      out.push_back({tau[a].first, tau[a].first, static_cast<float>(scale * r.diag / r.lambda / r.tau)});
+    for (const auto& [b, c] : r.partner) {
+      double m = c / (r.lambda + rows[b].lambda);
+      if (m > 0.0) out.push_back({tau[a].first, tau[b].first, static_cast<float>(scale * m / r.tau)});
+    }
+  }
+  return mismatch;
 }
 
 void centre_point_entries(const PatchSet& patches, const Material& m, const FormFactors& ff,
@@ -95,18 +297,38 @@ void centre_point_entries(const PatchSet& patches, const Material& m, const Form
 
 void specular_entries_of(const PatchSet& patches, const Material& material, const FormFactors& ff,
                          const RayCaster& caster, const SpecularOptions& options, PatchId i,
-                         std::vector<TransferEntry>& out, long long* rays, long long* unseen,
-                         double* escaped, double* weight) {
-  long long r = 0, u = 0;
-  double e = 0.0, w = 0.0;
-  if (options.estimator == SpecularEstimator::kCentrePoint)
-    centre_point_entries(patches, material, ff, i, out);
-  else
-    monte_carlo_entries(patches, material, ff, caster, options, i, out, r, u, e, w);
-  if (rays) *rays += r;
-  if (unseen) *unseen += u;
-  if (escaped) *escaped += e;
-  if (weight) *weight += w;
+                         std::vector<TransferEntry>& out, TransferCounters* counters) {
+  TransferCounters local;
+  std::vector<TransferEntry> entries;
+  if (options.estimator == SpecularEstimator::kCentrePoint) {
+    centre_point_entries(patches, material, ff, i, entries);  // symmetric already
+  } else {
+    std::vector<SampledPair> pairs;
+    monte_carlo_pairs(patches, material, ff, caster, options, i, pairs, local);
+    if (options.balance) {
+      std::vector<std::pair<PatchId, double>> tau;
+      for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f)
+        tau.emplace_back(ff.f.column[f], kPi * patches[i].area * ff.f.value[f]);
+      local.mismatch = balance_reciprocity(pairs, tau, entries);
+    } else {
+      for (const auto& p : pairs)
+        for (const auto& [k, fraction] : p.fraction)
+          entries.push_back({p.from, k, static_cast<float>(fraction)});
+    }
+  }
+  // Sorted by (from, to): the order build_transport and the file format expect.
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
+    return a.from != b.from ? a.from < b.from : a.to < b.to;
+  });
+  out.insert(out.end(), entries.begin(), entries.end());
+  if (counters) {
+    counters->rays += local.rays;
+    counters->unseen += local.unseen;
+    counters->dropped += local.dropped;
+    counters->escaped += local.escaped;
+    counters->weight += local.weight;
+    counters->mismatch = std::max(counters->mismatch, local.mismatch);
+  }
 }
 
 SpecularTransfer compute_specular_transfer(const PatchSet& patches,
@@ -116,20 +338,15 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
   auto t0 = std::chrono::steady_clock::now();
   const auto n = static_cast<PatchId>(patches.size());
   std::vector<std::vector<TransferEntry>> per_patch(n);
-  long long rays = 0, unseen = 0, pairs = 0;
-  double escaped = 0.0, weight = 0.0;
+  std::vector<TransferCounters> counters(n);
+  long long pairs = 0;
   Progress progress("specular transfer", n);
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays, unseen, pairs, escaped, weight)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : pairs)
   for (PatchId i = 0; i < n; ++i) {
     const Material& m = materials[patches[i].material];
     if (m.has_lobe()) {
       pairs += ff.f.start[i + 1] - ff.f.start[i];
-      specular_entries_of(patches, m, ff, caster, options, i, per_patch[i], &rays, &unseen,
-                          &escaped, &weight);
-      // Sorted by (from, to): the order build_transport and the file format expect.
-      std::sort(per_patch[i].begin(), per_patch[i].end(), [](const auto& a, const auto& b) {
-        return a.from != b.from ? a.from < b.from : a.to < b.to;
-      });
+      specular_entries_of(patches, m, ff, caster, options, i, per_patch[i], &counters[i]);
     }
     progress.advance();
   }
@@ -137,6 +354,7 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
 
   SpecularTransfer st;
   st.start.assign(n + 1, 0);
+  TransferCounters total;
   for (PatchId i = 0; i < n; ++i) {
     for (const auto& e : per_patch[i]) {
       st.from.push_back(e.from);
@@ -144,11 +362,19 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
       st.fraction.push_back(e.fraction);
     }
     st.start[i + 1] = static_cast<std::int64_t>(st.to.size());
+    total.rays += counters[i].rays;
+    total.unseen += counters[i].unseen;
+    total.dropped += counters[i].dropped;
+    total.escaped += counters[i].escaped;
+    total.weight += counters[i].weight;
+    total.mismatch = std::max(total.mismatch, counters[i].mismatch);
   }
-  st.stats.rays = rays;
+  st.stats.rays = total.rays;
   st.stats.pairs = pairs;
-  st.stats.pairs_unseen = unseen;
-  st.stats.escaped_fraction = weight > 0.0 ? escaped / weight : 0.0;
+  st.stats.pairs_unseen = total.unseen;
+  st.stats.dropped_hits = total.dropped;
+  st.stats.balance_mismatch = total.mismatch;
+  st.stats.escaped_fraction = total.weight > 0.0 ? total.escaped / total.weight : 0.0;
   st.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

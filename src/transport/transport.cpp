@@ -125,7 +125,7 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
         PatchId j = specular->from[e], k = specular->to[e];
         auto it = active.find({i, k});
         if (it == active.end()) continue;
-        double w = specular->fraction[e] * ff.at(i, j) / ff.at(i, k);
+        double w = specular->fraction[e] * ff.at(i, j) / ff.at(i, k);  // W_jik
         auto& r = link_rows[it->second];
         r.push_back({j, w});
         auto src = active.find({j, i});

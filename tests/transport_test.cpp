@@ -1,0 +1,214 @@
+// The link transport operator against answers known exactly (METHOD.md section 8).
+#include "polyrad/transport.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <sstream>
+
+#include "polyrad/camera_gather.h"
+#include "polyrad/pipeline.h"
+#include "polyrad/solver.h"
+#include "test_support.h"
+
+namespace polyrad {
+namespace {
+
+std::string grey(const char* type, double a) {
+  std::ostringstream s;
+  s << R"({"type": ")" << type << R"(", "reflectance": [)" << a << ", " << a << ", " << a << "]}";
+  return s.str();
+}
+
+std::string half_and_half(double a) {  // diffuse a/2 plus a perfect mirror lobe a/2
+  std::ostringstream s;
+  double h = a / 2;
+  s << R"({"type": "glossy", "diffuse": [)" << h << ", " << h << ", " << h
+    << R"(], "specular": [)" << h << ", " << h << ", " << h << R"(], "roughness": 0})";
+  return s.str();
+}
+
+TEST(Transport, ADiffuseSceneBuildsTheClassicSystem) {
+  PipelineOptions with, without;
+  without.specular_transport = false;
+  auto a = build_system(load_scene(test::scene_path("cornell-box")), with);
+  auto b = build_system(load_scene(test::scene_path("cornell-box")), without);
+  EXPECT_EQ(a->transport.num_links(), 0);
+  EXPECT_EQ(a->transport.size(), static_cast<Eigen::Index>(a->patches.size()));
+  EXPECT_EQ(a->transport.weights().value, b->transport.weights().value);
+  // Against a dense direct solve of B = E + diag(d) F B.
+  const auto n = static_cast<Eigen::Index>(a->patches.size());
+  Eigen::MatrixXd f = Eigen::MatrixXd::Zero(n, n);
+  const auto& ff = a->form_factors.f;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (auto k = ff.start[i]; k < ff.start[i + 1]; ++k) f(i, ff.column[k]) = ff.value[k];
+  SolveOptions o;
+  o.tolerance = 1e-10;
+  SolveResult r = solve(a->transport, a->transport.emission(), o);
+  ASSERT_TRUE(r.ok());
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXd d(n), e(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      d[i] = a->scene.materials[a->patches[i].material].diffuse[c];
+      e[i] = a->patches[i].emission[c];
+    }
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(n, n) - d.asDiagonal() * f;
+    Eigen::VectorXd exact = m.partialPivLu().solve(e);
+    EXPECT_LT((r.u.col(c) - exact).cwiseAbs().maxCoeff(), 1e-6) << "channel " << c;
+  }
+}
+
+class MixedFurnace : public ::testing::TestWithParam<double> {};
+
+TEST_P(MixedFurnace, RadianceIsEmissionOverOneMinusAlbedoEverywhere) {
+  const double a = GetParam();
+  auto dir = test::temp_dir();
+  std::string path = test::write_file(
+      dir, "box.json",
+      test::closed_box_json(Vec3(1, 1.2, 0.9), 0.3,
+                            {grey("diffuse", a), grey("mirror", a), half_and_half(a),
+                             grey("mirror", a), grey("diffuse", a), half_and_half(a)},
+                            1.0));
+  auto sys = build_system(load_scene(path));
+  const auto& t = sys->transport;
+  ASSERT_GT(t.num_links(), 0);
+  SolveOptions o;
+  o.tolerance = 1e-8;
+  SolveResult r = solve(t, t.emission(), o);
+  ASSERT_TRUE(r.ok()) << r.message;
+  const double expect = 1.0 / (1.0 - a);
+  // Radiance leaving i toward k: L_{i->k} = B_i + S_{i->k} on every stored link ...
+  for (LinkId l = 0; l < t.num_links(); ++l) {
+    const Link& link = t.links()[l];
+    double radiance = r.u(link.from, 0) + r.u(t.num_patches() + l, 0);
+    ASSERT_NEAR(radiance, expect, 5e-3 * expect)
+        << "link " << link.from << "->" << link.to << " B " << r.u(link.from, 0) << " objects "
+        << sys->patches[link.from].object << "->" << sys->patches[link.to].object;
+  }
+  // ... and B on every patch without a lobe.
+  for (PatchId i = 0; i < t.num_patches(); ++i) {
+    if (!sys->scene.materials[sys->patches[i].material].has_lobe()) {
+      ASSERT_NEAR(r.u(i, 0), expect, 5e-3 * expect) << "patch " << i;
+    }
+  }
+  // The camera, inside the box, sees the same radiance in every pixel.
+  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster, t);
+  Image img = apply_gather(g, r.u);
+  for (float v : img.rgb) ASSERT_NEAR(v, expect, 5e-3 * expect);
+}
+
+INSTANTIATE_TEST_SUITE_P(Albedo, MixedFurnace, ::testing::Values(0.5, 0.9));
+
+// A lamp and a receiver side by side, facing a mirror floor: light reaches the receiver only by
+// the mirror, as if from the lamp's mirror image.
+const char* kMirrorScene = R"({
+  "camera": {"position": [0, 3, -4], "look_at": [0, 0, 0], "fov_deg": 40, "width": 8, "height": 8},
+  "patch_size": 0.25,
+  "materials": {
+    "black": {"type": "diffuse", "reflectance": [0, 0, 0]},
+    "card":  {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
+    "glass": {"type": "mirror",  "reflectance": [0.8, 0.8, 0.8]}
+  },
+  "objects": [
+    {"name": "lamp", "material": "black", "emission": [1, 1, 1], "patch_size": 0.1,
+     "polygon": [[-1.2, 1, -0.2], [-0.8, 1, -0.2], [-0.8, 1, 0.2], [-1.2, 1, 0.2]]},
+    {"name": "receiver", "material": "card", "patch_size": 1,
+     "polygon": [[RX0, 1, -0.2], [RX1, 1, -0.2], [RX1, 1, 0.2], [RX0, 1, 0.2]]},
+    {"name": "mirror", "material": "glass",
+     "polygon": [[MX0, 0, MZ0], [MX0, 0, MZ1], [MX1, 0, MZ1], [MX1, 0, MZ0]]}
+  ]
+})";
+
+std::string mirror_scene(double rx0, double rx1, double mx0, double mx1, double mz0, double mz1) {
+  std::string s = kMirrorScene;
+  auto put = [&](const std::string& key, double v) {
+    for (size_t at; (at = s.find(key)) != std::string::npos;) s.replace(at, key.size(), std::to_string(v));
+  };
+  put("RX0", rx0);
+  put("RX1", rx1);
+  put("MX0", mx0);
+  put("MX1", mx1);
+  put("MZ0", mz0);
+  put("MZ1", mz1);
+  return s;
+}
+
+// B of the receiver after two sweeps (lamp -> mirror -> receiver, nothing more).
+double receiver_first_bounce(const std::string& json, int samples) {
+  PipelineOptions po;
+  po.specular.samples = samples;
+  auto sys = build_system(test::scene_from_json(json), po);
+  SolveOptions o;
+  o.method = SolveMethod::kJacobi;
+  o.fixed_sweeps = 2;
+  SolveResult r = solve(sys->transport, sys->transport.emission(), o);
+  ObjectId rec = sys->scene.find_object("receiver");
+  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches.size()); ++i)
+    if (sys->patches[i].object == rec) return r.u(i, 0);
+  return -1.0;
+}
+
+TEST(Transport, MirrorImageOfTheLamp) {
+  // Receiver [0.8, 1.2] x [-0.2, 0.2] at y = 1 sees the lamp's image [-1.2, -0.8] x [-0.2, 0.2]
+  // at y = -1 across the gap of 2: B = d * rho * E * F(receiver -> image).
+  double f = test::parallel_offset_rectangles_ff(0.8, 1.2, -0.2, 0.2, -1.2, -0.8, -0.2, 0.2, 2.0);
+  double expect = 0.5 * 0.8 * 1.0 * f;
+  double b = receiver_first_bounce(mirror_scene(0.8, 1.2, -2, 2, -1, 1), 64);
+  EXPECT_NEAR(b, expect, 0.01 * expect);
+}
+
+// Monte Carlo of d * rho * E * F through a mirror aperture, independent of polyrad's code:
+// point pairs between the receiver and the lamp's image; a pair counts if the segment crosses
+// y = 0 inside the mirror rectangle.
+double aperture_reference(double rx0, double rx1, double mx0, double mx1, double mz0, double mz1) {
+  const int n = 48;
+  double sum = 0.0;
+  for (int a = 0; a < n * n; ++a)
+    for (int b = 0; b < n * n; ++b) {
+      Vec3 x(rx0 + (rx1 - rx0) * (a % n + 0.5) / n, 1.0, -0.2 + 0.4 * (a / n + 0.5) / n);
+      Vec3 y(-1.2 + 0.4 * (b % n + 0.5) / n, -1.0, -0.2 + 0.4 * (b / n + 0.5) / n);
+      Vec3 d = y - x;
+      Vec3 m = 0.5 * (x + y);  // where the segment crosses y = 0
+      if (m.x() < mx0 || m.x() > mx1 || m.z() < mz0 || m.z() > mz1) continue;
+      double r2 = d.squaredNorm();
+      sum += (d.y() * d.y() / r2) / (kPi * r2);
+    }
+  double area_image = 0.16;
+  return 0.5 * 0.8 * sum * area_image / (n * n * static_cast<double>(n * n));
+}
+
+TEST(Transport, AsymmetricMirrorSendsLightOneWayOnly) {
+  // A small mirror at the origin sends the lamp's light to the right (x > 0) and nowhere else:
+  // a wrong j/i/k order in the transfer would light the receiver on the lamp's side instead.
+  double right = receiver_first_bounce(mirror_scene(0.8, 1.2, -0.3, 0.1, -0.3, 0.3), 64);
+  double left = receiver_first_bounce(mirror_scene(-2.2, -1.8, -0.3, 0.1, -0.3, 0.3), 64);
+  double expect = aperture_reference(0.8, 1.2, -0.3, 0.1, -0.3, 0.3);
+  EXPECT_GT(expect, 0.0);
+  EXPECT_NEAR(right, expect, 0.03 * expect);
+  EXPECT_EQ(left, 0.0);
+}
+
+TEST(Transport, EnergyShrinksGeometricallyWithMirrors) {
+  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
+  SolveOptions o;
+  o.method = SolveMethod::kJacobi;
+  o.tolerance = 1e-8;
+  SolveResult r = solve(sys->transport, sys->transport.emission(), o);
+  ASSERT_TRUE(r.ok());
+  ASSERT_GT(r.sweep_residual.size(), 5u);
+  for (size_t k = 1; k < r.sweep_residual.size(); ++k)
+    EXPECT_LE(r.sweep_residual[k], sys->transport.max_albedo() * r.sweep_residual[k - 1] * (1 + 1e-3));
+}
+
+TEST(Transport, MirrorCubeLinksOnlyWhereSpecularLightGoes) {
+  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
+  const auto& t = sys->transport;
+  ObjectId cube = sys->scene.find_object("short_block");
+  for (const Link& l : t.links()) ASSERT_EQ(sys->patches[l.from].object, cube);
+  // The cube's patches link to at most the patches they see.
+  EXPECT_LE(t.num_links(), static_cast<int>(sys->form_factors.f.nnz()));
+  EXPECT_GT(t.num_links(), 1000);
+}
+
+}  // namespace
+}  // namespace polyrad
