@@ -53,7 +53,8 @@ Material Material::phong(std::string name, Rgb diffuse, Rgb specular, double exp
 }
 
 Frame Frame::from_normal(const Vec3& n) {
-  // Branchless orthonormal basis (Duff et al. 2017): continuous except at n.z = -1 exactly.
+  // Orthonormal basis (Duff et al. 2017): one formula whose sign switches at n.z = 0, accurate
+  // for every unit normal including n = -z.
   double sign = std::copysign(1.0, n.z());
   double a = -1.0 / (sign + n.z());
   double b = n.x() * n.y() * a;
