@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   int exit_code = kExitOk;
   add_render_command(app, exit_code);
   add_demo_command(app, exit_code);
+  add_compare_command(app, exit_code);
 
   try {
     app.parse(argc, argv);

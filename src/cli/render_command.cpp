@@ -2,7 +2,7 @@
 #include <chrono>
 #include <cstdio>
 
-#include "cli_common.h"
+#include "render_flags.h"
 #include "polyrad/camera_gather.h"
 #include "polyrad/files.h"
 #include "polyrad/image.h"
@@ -10,22 +10,7 @@
 
 namespace polyrad::cli {
 
-namespace {
-
-struct RenderFlags {
-  std::string scene, output, report, patches_csv;
-  std::string method = "iterative";
-  std::string solver = "gauss-seidel";
-  std::string diffuse = "smooth";
-  double tolerance = 1e-4;
-  int max_iterations = 10000;
-  int pixel_grid = 2;
-  int lobe_samples = 16;
-  double exposure = 1.0;
-  SystemFlags system;
-};
-
-int run_render(const RenderFlags& f) {
+int render_iterative(const RenderFlags& f) {
   check_image_path(f.output);
   if (!f.report.empty()) check_output_path(f.report, "report");
   if (!f.patches_csv.empty()) check_output_path(f.patches_csv, "patch table");
@@ -84,6 +69,14 @@ int run_render(const RenderFlags& f) {
   return kExitOk;
 }
 
+namespace {
+
+int run_render(const RenderFlags& f) {
+  if (f.method == "series") return render_series(f);
+  if (f.method == "pathtrace") return render_pathtrace(f);
+  return render_iterative(f);
+}
+
 }  // namespace
 
 void add_render_command(CLI::App& app, int& exit_code) {
@@ -93,7 +86,7 @@ void add_render_command(CLI::App& app, int& exit_code) {
   cmd->add_option("-o,--output", flags->output, "Image: .exr or .pfm (linear), .png (tonemapped)")
       ->required();
   cmd->add_option("--method", flags->method, "Solution method")
-      ->check(CLI::IsMember({"iterative"}))
+      ->check(CLI::IsMember({"iterative", "series", "pathtrace"}))
       ->capture_default_str();
   cmd->add_option("--solver", flags->solver, "Iterative solver")
       ->check(CLI::IsMember({"gauss-seidel", "jacobi"}))
@@ -104,6 +97,12 @@ void add_render_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-iterations", flags->max_iterations, "Sweep limit")
       ->check(CLI::Range(1, 100000000))
       ->capture_default_str();
+  cmd->add_option("--order", flags->order, "Series: order K (default: chosen from --tolerance)")
+      ->check(CLI::Range(0, 100000));
+  cmd->add_option("--spp", flags->spp, "Path tracer: samples per pixel")
+      ->check(CLI::Range(1, 1 << 24))
+      ->capture_default_str();
+  cmd->add_option("--seed", flags->seed, "Path tracer: random seed")->capture_default_str();
   cmd->add_option("--report", flags->report, "Write a JSON report here");
   cmd->add_option("--patches", flags->patches_csv, "Write one CSV row per patch here");
   cmd->add_option("--diffuse", flags->diffuse, "Diffuse shading in the image")
