@@ -11,6 +11,15 @@
 // an edge (where the point-to-point integrand is singular but the contour formula is not).
 // One value G_ij = A_i F_ij is computed per pair, so reciprocity holds to rounding.
 //
+// Exposure: the part of a patch buried inside other geometry (a floor under a block, a ceiling
+// behind a lamp mounted flush with it) can neither receive nor send light, and no camera sees
+// it. Its area is left out: F_ij = G_ij / A'_i with A'_i the exposed area, so that B_i is the
+// radiosity of the part light reaches rather than an average that mixes in the dark part and
+// shows as a dark halo (a contact shadow that is not there). A'_i is measured on 4 x 4 points,
+// refined to 32 x 32 where the buried boundary crosses the patch; for such a patch the pair
+// integral is normalised by the exposed weight of its own quadrature points, so that both sides
+// of F_ij = G_ij / A'_i see the boundary at the same resolution.
+//
 // Deterministic for any thread count: shadow-ray points come from (seed, pair, point) keys.
 //
 //   FormFactors ff = compute_form_factors(patches, caster, {});
@@ -36,6 +45,8 @@ struct FormFactorOptions {
   double near_ratio = 1.5;    // centre distance / larger diameter below which a pair is near
   double far_ratio = 4.0;     // ... above which it is distant
   int visibility_rays = 4;    // shadow rays per outer point
+  int exposure_points = 4;    // points per side tested for being buried ...
+  int exposure_refined = 32;  // ... and where the patch is partly buried
   std::uint64_t seed = 1;
 };
 
@@ -48,6 +59,9 @@ struct FormFactorStats {
 
 struct FormFactors {
   Csr<float> f;  // row i: the j with F_ij > 0
+  // A'_i: the exposed area of each patch, by which row i is normalised (0 for a patch that
+  // sees nothing). pi A'_i F_ij is the etendue tau_ij, symmetric in i and j.
+  std::vector<double> area;
   FormFactorStats stats;
 
   double at(PatchId i, PatchId j) const { return f.at(i, j); }
@@ -61,9 +75,20 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
 // A_a F_ab for one pair, integrated over a (with visibility if caster is non-null): the
 // building block, exposed for tests. key seeds the shadow-ray points; rays_cast, if given, is
 // increased by the number of shadow rays.
+// a_exposed: a's exposed fraction A'_a / A_a; below 1 the quadrature points are tested for being
+// buried and the result is A'_a times the mean over a's exposed points.
 double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* caster,
                              const FormFactorOptions& options, std::uint64_t key,
-                             long long* rays_cast = nullptr);
+                             long long* rays_cast = nullptr, double a_exposed = 1.0);
+
+// True if every probe ray from x (on patch p) meets the back of a surface (see exposed_areas).
+bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster);
+
+// The exposed area of every patch: a point is buried when each of five probe rays (along the
+// normal and tilted 60 degrees around it) meets the back of a surface, i.e. it lies inside a
+// closed object or sandwiched under a one-sided panel. Deterministic (fixed points).
+std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
+                                  int refined_points);
 
 // The exact form factor from a point x with normal n to a polygon that lies entirely in front
 // of x's tangent plane and faces x (Lambert's formula).

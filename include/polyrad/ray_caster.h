@@ -54,6 +54,7 @@ class RayCaster {
   // A ray leaving point x of patch p along d: the origin is lifted the same way to the side d
   // leaves on, and the ray starts there (tnear 0). Hit::t counts from the lifted origin.
   Hit intersect_from(const Vec3& x, PatchId p, const Vec3& d) const;
+  Hit intersect_from(const Vec3& x, const Patch& p, const Vec3& d) const;
   // The distance a point of patch p is lifted: epsilon() + its bend.
   double lift(const Patch& p) const { return epsilon_ + p.bend; }
 

@@ -141,8 +141,12 @@ bool RayCaster::segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, Patch
   return segment_occluded(a, patches_[pa], b, patches_[pb]);
 }
 
+Hit RayCaster::intersect_from(const Vec3& x, const Patch& p, const Vec3& d) const {
+  return intersect(lifted(x, p.normal, d, lift(p)), d, 0.0);
+}
+
 Hit RayCaster::intersect_from(const Vec3& x, PatchId p, const Vec3& d) const {
-  return intersect(lifted(x, patches_[p].normal, d, lift(patches_[p])), d, 0.0);
+  return intersect_from(x, patches_[p], d);
 }
 
 bool RayCaster::segment_occluded(const Vec3& a, const Vec3& b) const {

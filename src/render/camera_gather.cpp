@@ -22,7 +22,10 @@ struct Term {
 // within 10 degrees) that share the welded corner.
 class CornerAverages {
  public:
-  explicit CornerAverages(const PatchSet& patches) : patches_(patches) {
+  // Weights are the exposed areas (flux weights / pi): a buried patch does not darken its
+  // neighbours' corners.
+  CornerAverages(const PatchSet& patches, const std::vector<double>& flux_weight)
+      : patches_(patches) {
     std::vector<std::vector<PatchId>> by_vertex(patches.vertex_ids);
     for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
       for (int c = 0; c < patches[p].corners; ++c) {
@@ -37,10 +40,11 @@ class CornerAverages {
         size_t first = entries_.size();
         for (PatchId q : list) {
           if (patches[q].normal.dot(patches[p].normal) < std::cos(10.0 * kPi / 180.0)) continue;
-          entries_.push_back({q, patches[q].area});
-          total += patches[q].area;
+          entries_.push_back({q, flux_weight[q]});
+          total += flux_weight[q];
         }
-        for (size_t e = first; e < entries_.size(); ++e) entries_[e].second /= total;
+        for (size_t e = first; e < entries_.size(); ++e)
+          entries_[e].second = total > 0.0 ? entries_[e].second / total : 0.0;
         start_[4 * p + c + 1] = entries_.size();
       }
     }
@@ -160,7 +164,7 @@ Gather build_gather(const Camera& camera, const PatchSet& patches,
                     const std::vector<Material>& materials, const RayCaster& caster,
                     const TransportOperator& t, const GatherOptions& options) {
   auto t0 = std::chrono::steady_clock::now();
-  CornerAverages corners(patches);
+  CornerAverages corners(patches, t.flux_weight());
   PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners);
   const int w = camera.width, h = camera.height;
   std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);

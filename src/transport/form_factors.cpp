@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "polyrad/brdf.h"
 #include "polyrad/progress.h"
 #include "polyrad/sampling.h"
 
@@ -183,7 +184,7 @@ double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vec
 
 double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* caster,
                              const FormFactorOptions& options, std::uint64_t key,
-                             long long* rays_cast) {
+                             long long* rays_cast, double a_exposed) {
   double eps = 1e-9 * std::max(a.diameter(), b.diameter());
   if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return 0.0;
   std::vector<Vec3> a_front = clip_to_front(corners_of(a), b.centroid, b.normal);
@@ -198,9 +199,13 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
              points);
   PolygonSampler target(b_front);
 
-  double total = 0.0;
+  const bool partly_buried = caster && a_exposed < 1.0;
+  double total = 0.0, weight = 0.0, exposed_weight = 0.0;
   for (size_t q = 0; q < points.size(); ++q) {
     const Vec3& x = points[q].x;
+    weight += points[q].w;
+    if (partly_buried && is_buried(x, a, *caster)) continue;
+    exposed_weight += points[q].w;
     double f = point_to_polygon_form_factor(x, a.normal, b_front);
     if (f <= 0.0) continue;
     double visible = 1.0;
@@ -224,7 +229,51 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
     }
     total += points[q].w * f * visible;
   }
+  // A partly buried a: its mean over exposed points, times its exposed part of this region.
+  if (partly_buried) return exposed_weight > 0.0 ? total * weight * a_exposed / exposed_weight : 0.0;
   return total;
+}
+
+bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster) {
+  static const double kTilt = std::sin(kPi / 3.0), kRise = std::cos(kPi / 3.0);
+  static const Vec3 kProbes[5] = {Vec3(0, 0, 1), Vec3(kTilt, 0, kRise), Vec3(-kTilt, 0, kRise),
+                                  Vec3(0, kTilt, kRise), Vec3(0, -kTilt, kRise)};
+  const Frame frame = Frame::from_normal(p.normal);
+  for (const Vec3& d : kProbes) {
+    Hit h = caster.intersect_from(x, p, frame.to_world(d));
+    if (!h.valid() || h.front) return false;
+  }
+  return true;
+}
+
+namespace {
+
+// The exposed fraction of patch p on an n x n grid of points (area-density weighted).
+double exposed_fraction(const Patch& p, const RayCaster& caster, int n) {
+  double exposed = 0.0, total = 0.0;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) {
+      double density;
+      Vec3 x = p.sample(Vec2((a + 0.5) / n, (b + 0.5) / n), &density);
+      total += density;
+      if (!is_buried(x, p, caster)) exposed += density;
+    }
+  return exposed / total;
+}
+
+}  // namespace
+
+std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
+                                  int refined_points) {
+  const auto n = static_cast<PatchId>(patches.size());
+  std::vector<double> area(n);
+#pragma omp parallel for schedule(dynamic, 16)
+  for (PatchId i = 0; i < n; ++i) {
+    double f = exposed_fraction(patches[i], caster, points);
+    if (f > 0.0 && f < 1.0) f = exposed_fraction(patches[i], caster, refined_points);
+    area[i] = patches[i].area * f;
+  }
+  return area;
 }
 
 double FormFactors::row_sum(PatchId i) const {
@@ -237,6 +286,8 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
                                  const FormFactorOptions& options) {
   auto t0 = std::chrono::steady_clock::now();
   const auto n = static_cast<PatchId>(patches.size());
+  std::vector<double> exposed =
+      exposed_areas(patches, caster, options.exposure_points, options.exposure_refined);
   // upper[i]: (j, A_i F_ij) for j > i. Filled by whichever thread owns row i.
   std::vector<std::vector<std::pair<PatchId, double>>> upper(n);
   long long facing = 0, rays = 0;
@@ -256,9 +307,12 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
       ++facing;
       std::uint64_t key = static_cast<std::uint64_t>(i) * static_cast<std::uint64_t>(n) + j;
       long long pair_rays = 0;
-      double g = pair_area_form_factor(a, b, &caster, options, key, &pair_rays);
+      PatchId a_id = i_outer ? i : j;
+      double g = exposed[a_id] <= 0.0 ? 0.0
+                                      : pair_area_form_factor(a, b, &caster, options, key, &pair_rays,
+                                                              exposed[a_id] / a.area);
       rays += pair_rays;
-      if (g > 0.0) upper[i].emplace_back(j, g);
+      if (g > 0.0 && exposed[i] > 0.0 && exposed[j] > 0.0) upper[i].emplace_back(j, g);
     }
     progress.advance();
   }
@@ -281,10 +335,16 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
   for (PatchId i = 0; i < n; ++i)
     for (const auto& [j, g] : upper[i]) {
       ff.f.column[fill[i]] = j;
-      ff.f.value[fill[i]++] = static_cast<float>(g / patches[i].area);
+      ff.f.value[fill[i]++] = static_cast<float>(g / exposed[i]);
       ff.f.column[fill[j]] = i;
-      ff.f.value[fill[j]++] = static_cast<float>(g / patches[j].area);
+      ff.f.value[fill[j]++] = static_cast<float>(g / exposed[j]);
     }
+  // A patch that exchanges light with nothing has no exposed area either: this covers a face
+  // pressed flat against another (a block's bottom on the floor), whose probe rays start beyond
+  // the contact plane and so cannot tell it is buried.
+  for (PatchId i = 0; i < n; ++i)
+    if (ff.f.start[i + 1] == ff.f.start[i]) exposed[i] = 0.0;
+  ff.area = std::move(exposed);
   ff.stats.pairs_facing = facing;
   ff.stats.rays = rays;
   ff.stats.pairs_visible = static_cast<long long>(ff.f.nnz() / 2);

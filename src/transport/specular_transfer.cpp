@@ -308,7 +308,7 @@ void specular_entries_of(const PatchSet& patches, const Material& material, cons
     if (options.balance) {
       std::vector<std::pair<PatchId, double>> tau;
       for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f)
-        tau.emplace_back(ff.f.column[f], kPi * patches[i].area * ff.f.value[f]);
+        tau.emplace_back(ff.f.column[f], kPi * ff.area[i] * ff.f.value[f]);
       local.mismatch = balance_reciprocity(pairs, tau, entries);
     } else {
       for (const auto& p : pairs)

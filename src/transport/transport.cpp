@@ -113,7 +113,7 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     }
     t.weights_.push_row();
     t.row_colour_.push_back(m.diffuse.cast<float>());
-    t.flux_weight_.push_back(kPi * patches[i].area);
+    t.flux_weight_.push_back(kPi * ff.area[i]);
   }
   t.nnz_diffuse_ = t.weights_.nnz();
 
@@ -142,7 +142,7 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     t.weights_.push_row();
     const Link& link = t.links_[l];
     t.row_colour_.push_back(materials[patches[link.from].material].specular.cast<float>());
-    t.flux_weight_.push_back(kPi * patches[link.from].area * ff.at(link.from, link.to));
+    t.flux_weight_.push_back(kPi * ff.area[link.from] * ff.at(link.from, link.to));
   }
   return t;
 }
