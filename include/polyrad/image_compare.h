@@ -9,8 +9,9 @@
 // A pixel's error (worst pixels, the error picture) is the signed relative luminance error
 //   e = (lum(a) - lum(b)) / (lum(b) + epsilon_fraction * mean lum(B)).
 // A region's figure is the relative difference of its means, (mean_A - mean_B) / mean_B, per
-// channel and in luminance. The region of a pixel is the object met by the primary ray through
-// its centre (object_regions); pixels whose ray meets nothing, or a back side, belong to none.
+// channel and in luminance. The region of a pixel is the object its primary ray meets, if the
+// rays of its 3 x 3 neighbourhood meet the same one (object_regions): edge pixels, which mix
+// objects, and pixels that see nothing or a back side belong to none.
 //
 //   RegionMap regions = object_regions(scene, patches, caster);
 //   ImageComparison c = compare_images(radiosity, reference, {}, &regions);
@@ -36,7 +37,8 @@ struct RegionMap {
   std::vector<std::string> names;
 };
 
-// Regions = scene objects, by the primary ray through each pixel centre of scene.camera.
+// Regions = scene objects, by the primary ray of each pixel of scene.camera, less a one-pixel
+// margin along every edge between objects.
 RegionMap object_regions(const Scene& scene, const PatchSet& patches, const RayCaster& caster);
 
 struct CompareOptions {

@@ -53,13 +53,28 @@ RegionMap object_regions(const Scene& scene, const PatchSet& patches, const RayC
   map.height = cam.height;
   map.label.assign(static_cast<size_t>(cam.width) * cam.height, -1);
   for (const auto& o : scene.objects) map.names.push_back(o.name);
+  // The object each pixel centre sees; then a pixel belongs to a region only if its 3 x 3
+  // neighbourhood sees the same object. Pixels on an edge mix two objects however thin the
+  // sliver (a lamp's edge pixel carries part of the lamp's radiance), and renderers that cover
+  // a pixel differently would disagree there; the margin drops them whatever their coverage.
+  std::vector<int> centre(map.label.size(), -1);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
       Ray r = cam.ray(x + 0.5, y + 0.5);
       Hit h = caster.intersect(r.origin, r.direction);
-      if (h.valid() && h.front)
-        map.label[static_cast<size_t>(y) * cam.width + x] = patches[h.patch].object;
+      if (h.valid() && h.front) centre[static_cast<size_t>(y) * cam.width + x] = patches[h.patch].object;
+    }
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      int label = centre[static_cast<size_t>(y) * cam.width + x];
+      for (int dy = -1; dy <= 1 && label >= 0; ++dy)
+        for (int dx = -1; dx <= 1 && label >= 0; ++dx) {
+          int nx = x + dx, ny = y + dy;
+          if (nx < 0 || ny < 0 || nx >= cam.width || ny >= cam.height) continue;
+          if (centre[static_cast<size_t>(ny) * cam.width + nx] != label) label = -1;
+        }
+      map.label[static_cast<size_t>(y) * cam.width + x] = label;
     }
   return map;
 }
