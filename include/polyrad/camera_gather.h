@@ -39,6 +39,7 @@ using Rgbf = std::array<float, 3>;
 
 struct Gather {
   int width = 0, height = 0;
+  GatherOptions options;  // what built it
   Csr<Rgbf> g;  // row = pixel (row-major from the top-left), column = unknown
   long long rays = 0;
   double seconds = 0.0;
@@ -47,7 +48,12 @@ struct Gather {
 
 Gather build_gather(const Camera& camera, const PatchSet& patches,
                     const std::vector<Material>& materials, const RayCaster& caster,
-                    const TransportOperator& t, const GatherOptions& options = {});
+                    const UnknownLayout& layout, const GatherOptions& options = {});
+inline Gather build_gather(const Camera& camera, const PatchSet& patches,
+                           const std::vector<Material>& materials, const RayCaster& caster,
+                           const TransportOperator& t, const GatherOptions& options = {}) {
+  return build_gather(camera, patches, materials, caster, t.layout(), options);
+}
 
 Image apply_gather(const Gather& gather, const Field& u);
 

@@ -42,20 +42,34 @@ struct Link {
 
 class SpecularTransfer;  // specular_transfer.h
 
-class TransportOperator {
- public:
-  int num_patches() const { return num_patches_; }
-  int num_links() const { return static_cast<int>(links_.size()); }
-  Eigen::Index size() const { return num_patches_ + num_links(); }
-  const std::vector<Link>& links() const { return links_; }
+// Which unknown holds what: B_i at index i, S_{i->k} at num_patches + l. Enough to read, store
+// or gather a solution without the operator itself.
+struct UnknownLayout {
+  int num_patches = 0;
+  std::vector<Link> links;               // sorted by (from, to)
+  std::vector<std::int64_t> link_start;  // links of patch i: [link_start[i], link_start[i+1])
+  // Flux per unit radiance of each unknown: pi A'_i for B_i (A' the exposed area),
+  // tau_ik = pi A'_i F_ik for S_{i->k}. In these weights every column of T sums to at most the
+  // largest albedo (section 5).
+  std::vector<double> flux_weight;
+
+  Eigen::Index size() const { return num_patches + static_cast<Eigen::Index>(links.size()); }
   // Index of the unknown S_{i->k}, or -1 if that link carries no specular radiance.
   Eigen::Index link_unknown(PatchId i, PatchId k) const;
+};
+
+class TransportOperator {
+ public:
+  const UnknownLayout& layout() const { return layout_; }
+  int num_patches() const { return layout_.num_patches; }
+  int num_links() const { return static_cast<int>(layout_.links.size()); }
+  Eigen::Index size() const { return layout_.size(); }
+  const std::vector<Link>& links() const { return layout_.links; }
+  Eigen::Index link_unknown(PatchId i, PatchId k) const { return layout_.link_unknown(i, k); }
 
   const Csr<float>& weights() const { return weights_; }
   const std::vector<Eigen::Array3f>& row_colour() const { return row_colour_; }
-  // Flux per unit radiance of each unknown: pi A_i for B_i, tau_ik = pi A_i F_ik for S_{i->k}.
-  // In these weights every column of T sums to at most the largest albedo (section 5).
-  const std::vector<double>& flux_weight() const { return flux_weight_; }
+  const std::vector<double>& flux_weight() const { return layout_.flux_weight; }
 
   // e: the patches' emission in the B rows, zero elsewhere.
   Field emission() const;
@@ -79,12 +93,9 @@ class TransportOperator {
  private:
   friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
                                            const FormFactors&, const SpecularTransfer*);
-  int num_patches_ = 0;
-  std::vector<Link> links_;
-  std::vector<std::int64_t> link_start_;  // links of patch i: [link_start_[i], link_start_[i+1])
+  UnknownLayout layout_;
   Csr<float> weights_;
   std::vector<Eigen::Array3f> row_colour_;
-  std::vector<double> flux_weight_;
   std::vector<Rgb> patch_emission_;
   std::int64_t nnz_diffuse_ = 0;
   double max_albedo_ = 0.0;

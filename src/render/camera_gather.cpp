@@ -75,7 +75,7 @@ Rgbf scaled(const Rgb& c, double s) {
 class PixelGatherer {
  public:
   PixelGatherer(const Camera& camera, const PatchSet& patches, const std::vector<Material>& materials,
-                const RayCaster& caster, const TransportOperator& t, const GatherOptions& o,
+                const RayCaster& caster, const UnknownLayout& t, const GatherOptions& o,
                 const CornerAverages& corners)
       : camera_(camera), patches_(patches), materials_(materials), caster_(caster), t_(t), o_(o),
         corners_(corners) {}
@@ -140,7 +140,7 @@ class PixelGatherer {
   const PatchSet& patches_;
   const std::vector<Material>& materials_;
   const RayCaster& caster_;
-  const TransportOperator& t_;
+  const UnknownLayout& t_;
   const GatherOptions& o_;
   const CornerAverages& corners_;
 };
@@ -162,9 +162,9 @@ void merge_terms(std::vector<Term>& terms) {
 
 Gather build_gather(const Camera& camera, const PatchSet& patches,
                     const std::vector<Material>& materials, const RayCaster& caster,
-                    const TransportOperator& t, const GatherOptions& options) {
+                    const UnknownLayout& t, const GatherOptions& options) {
   auto t0 = std::chrono::steady_clock::now();
-  CornerAverages corners(patches, t.flux_weight());
+  CornerAverages corners(patches, t.flux_weight);
   PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners);
   const int w = camera.width, h = camera.height;
   std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);
@@ -187,6 +187,7 @@ Gather build_gather(const Camera& camera, const PatchSet& patches,
   Gather g;
   g.width = w;
   g.height = h;
+  g.options = options;
   g.g.cols = t.size();
   for (const auto& row : rows) {
     for (const auto& term : row) {

@@ -61,19 +61,19 @@ std::map<std::pair<PatchId, PatchId>, LinkId> active_links(const PatchSet& patch
 
 }  // namespace
 
-Eigen::Index TransportOperator::link_unknown(PatchId i, PatchId k) const {
-  auto first = links_.begin() + link_start_[i];
-  auto last = links_.begin() + link_start_[i + 1];
+Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
+  auto first = links.begin() + link_start[i];
+  auto last = links.begin() + link_start[i + 1];
   auto it = std::lower_bound(first, last, k, [](const Link& l, PatchId key) { return l.to < key; });
   if (it == last || it->to != k) return -1;
-  return num_patches_ + (it - links_.begin());
+  return num_patches + (it - links.begin());
 }
 
 TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
                                   const FormFactors& ff, const SpecularTransfer* specular) {
   TransportOperator t;
   const auto n = static_cast<PatchId>(patches.size());
-  t.num_patches_ = n;
+  t.layout_.num_patches = n;
   for (const auto& p : patches.patches) t.patch_emission_.push_back(p.emission);
   for (const auto& m : materials) {
     bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
@@ -82,16 +82,18 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
 
   std::map<std::pair<PatchId, PatchId>, LinkId> active;
   if (specular) active = active_links(patches, materials, ff, *specular);
-  t.links_.resize(active.size());
-  for (const auto& [key, id] : active) t.links_[id] = Link{key.first, key.second};
-  t.link_start_.assign(n + 1, 0);
-  for (const auto& l : t.links_) ++t.link_start_[l.from + 1];
-  for (PatchId i = 0; i < n; ++i) t.link_start_[i + 1] += t.link_start_[i];
+  auto& links = t.layout_.links;
+  auto& link_start = t.layout_.link_start;
+  links.resize(active.size());
+  for (const auto& [key, id] : active) links[id] = Link{key.first, key.second};
+  link_start.assign(n + 1, 0);
+  for (const auto& l : links) ++link_start[l.from + 1];
+  for (PatchId i = 0; i < n; ++i) link_start[i + 1] += link_start[i];
 
   // Links into each patch, for the diffuse rows: (link, F_ij) of every active j -> i.
   std::vector<std::vector<Entry>> incoming(n);
   for (LinkId l = 0; l < t.num_links(); ++l) {
-    const Link& link = t.links_[l];
+    const Link& link = links[l];
     incoming[link.to].push_back({n + l, ff.at(link.to, link.from)});
   }
 
@@ -113,12 +115,12 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     }
     t.weights_.push_row();
     t.row_colour_.push_back(m.diffuse.cast<float>());
-    t.flux_weight_.push_back(kPi * ff.area[i]);
+    t.layout_.flux_weight.push_back(kPi * ff.area[i]);
   }
   t.nnz_diffuse_ = t.weights_.nnz();
 
   // Specular rows, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}), W_jik = R_jik F_ij / F_ik.
-  std::vector<std::vector<Entry>> link_rows(t.links_.size());
+  std::vector<std::vector<Entry>> link_rows(links.size());
   if (specular) {
     for (PatchId i = 0; i < n; ++i) {
       for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e) {
@@ -140,9 +142,9 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
       t.weights_.value.push_back(static_cast<float>(e.weight));
     }
     t.weights_.push_row();
-    const Link& link = t.links_[l];
+    const Link& link = links[l];
     t.row_colour_.push_back(materials[patches[link.from].material].specular.cast<float>());
-    t.flux_weight_.push_back(kPi * ff.area[link.from] * ff.at(link.from, link.to));
+    t.layout_.flux_weight.push_back(kPi * ff.area[link.from] * ff.at(link.from, link.to));
   }
   return t;
 }
@@ -151,7 +153,7 @@ Field TransportOperator::emission() const { return emission(patch_emission_); }
 
 Field TransportOperator::emission(const std::vector<Rgb>& patch_emission) const {
   Field e = Field::Zero(size(), 3);
-  for (int i = 0; i < num_patches_; ++i) e.row(i) = patch_emission[i].matrix().transpose();
+  for (int i = 0; i < layout_.num_patches; ++i) e.row(i) = patch_emission[i].matrix().transpose();
   return e;
 }
 
@@ -220,13 +222,13 @@ void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
 
 double TransportOperator::flux_norm(const Field& f) const {
   double s = 0.0;
-  for (Eigen::Index r = 0; r < f.rows(); ++r) s += flux_weight_[r] * f.row(r).cwiseAbs().sum();
+  for (Eigen::Index r = 0; r < f.rows(); ++r) s += layout_.flux_weight[r] * f.row(r).cwiseAbs().sum();
   return s;
 }
 
 std::size_t TransportOperator::bytes() const {
   return weights_.bytes() + row_colour_.size() * sizeof(Eigen::Array3f) +
-         links_.size() * sizeof(Link) + link_start_.size() * sizeof(std::int64_t);
+         layout_.links.size() * sizeof(Link) + layout_.link_start.size() * sizeof(std::int64_t);
 }
 
 }  // namespace polyrad
