@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "polyrad/image.h"
 #include "polyrad/json.h"
 #include "test_support.h"
 
@@ -102,6 +103,64 @@ TEST(Cli, DivergenceIsExitThreeAndWritesNothing) {
 TEST(Cli, HelpIsExitZero) {
   EXPECT_EQ(run("--help").code, 0);
   EXPECT_EQ(run("render --help").code, 0);
+}
+
+}  // namespace
+}  // namespace polyrad
+
+namespace polyrad {
+namespace {
+
+TEST(Cli, PrecomputeThenRelight) {
+  auto dir = test::temp_dir();
+  // A private copy of the scene, so that changing it afterwards makes the operator stale.
+  std::ifstream in(test::scene_path("cornell-box"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* mesh : {"short_block.obj", "tall_block.obj"}) {
+    std::ifstream m(std::string(POLYRAD_SCENES_DIR) + "/meshes/" + mesh);
+    test::write_file(dir, std::string("meshes/") + mesh, std::string((std::istreambuf_iterator<char>(m)), {}));
+  }
+  std::string scene = test::write_file(dir, "box.json", text);
+  std::string prt = (dir / "box.prt").string();
+  CliRun pre = run("precompute " + scene + " -o " + prt + " --tolerance 1e-3 --precision half --report " +
+                   (dir / "pre.json").string());
+  ASSERT_EQ(pre.code, 0) << pre.err;
+  CliRun relit = run("relight " + prt + " -o " + (dir / "a.exr").string() +
+                     " --emission light=34,24,8 --report " + (dir / "rel.json").string());
+  ASSERT_EQ(relit.code, 0) << relit.err;
+  std::ifstream rin(dir / "rel.json");
+  std::string rs((std::istreambuf_iterator<char>(rin)), {});
+  JsonValue report = parse_json(rs, "rel.json");
+  for (const char* key : {"product_seconds_median", "nnz", "bytes_touched", "order"})
+    EXPECT_NE(report.find(key), nullptr) << key;
+
+  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission lamp=1,1,1").code, 2);
+  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=1,1").code, 2);
+  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=-1,1,1").code, 2);
+  // The scene changes: the operator is stale.
+  text.replace(text.find("0.725, 0.71, 0.68"), 17, "0.700, 0.71, 0.68");
+  test::write_file(dir, "box.json", text);
+  CliRun stale = run("relight " + prt + " -o " + (dir / "c.exr").string());
+  EXPECT_EQ(stale.code, 2);
+  EXPECT_NE(stale.err.find("stale"), std::string::npos) << stale.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "c.exr"));
+  // A damaged file is refused.
+  std::string damaged = test::write_file(dir, "damaged.prt", "POLYRADQ garbage");
+  EXPECT_EQ(run("relight " + damaged + " -o " + (dir / "d.exr").string()).code, 2);
+}
+
+TEST(Cli, RenderBySeriesMatchesIterative) {
+  auto dir = test::temp_dir();
+  std::string a = (dir / "s.pfm").string(), b = (dir / "i.pfm").string();
+  ASSERT_EQ(run("render " + test::scene_path("cornell-mirror-cube") + " --method series --tolerance 1e-4 -o " + a).code, 0);
+  ASSERT_EQ(run("render " + test::scene_path("cornell-mirror-cube") + " --tolerance 1e-6 -o " + b).code, 0);
+  Image x = read_image(a), y = read_image(b);
+  double sum = 0.0, diff = 0.0;
+  for (size_t k = 0; k < x.rgb.size(); ++k) {
+    sum += y.rgb[k];
+    diff += std::abs(x.rgb[k] - y.rgb[k]);
+  }
+  EXPECT_LT(diff / sum, 2e-4);  // the image is a positive map of u: L1 error within the tolerance
 }
 
 }  // namespace

@@ -47,5 +47,7 @@ struct SystemFlags {
 void add_render_command(CLI::App& app, int& exit_code);
 void add_demo_command(CLI::App& app, int& exit_code);
 void add_compare_command(CLI::App& app, int& exit_code);
+void add_precompute_command(CLI::App& app, int& exit_code);
+void add_relight_command(CLI::App& app, int& exit_code);
 
 }  // namespace polyrad::cli

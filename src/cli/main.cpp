@@ -40,6 +40,8 @@ int main(int argc, char** argv) {
   add_render_command(app, exit_code);
   add_demo_command(app, exit_code);
   add_compare_command(app, exit_code);
+  add_precompute_command(app, exit_code);
+  add_relight_command(app, exit_code);
 
   try {
     app.parse(argc, argv);

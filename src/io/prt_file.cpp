@@ -1,0 +1,328 @@
+// .prt files (prt_file.h).
+#include "polyrad/prt_file.h"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+
+#include "polyrad/files.h"
+#include "polyrad/json.h"
+#include "polyrad/sampling.h"
+
+namespace polyrad {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'O', 'L', 'Y', 'R', 'A', 'D', 'Q'};
+constexpr std::size_t kAlign = 64;
+
+std::size_t aligned(std::size_t n) { return (n + kAlign - 1) / kAlign * kAlign; }
+
+struct Section {
+  std::string name;
+  std::size_t offset = 0, size = 0;
+};
+
+std::string header_json(const SeriesOperator& q, const std::vector<Section>& sections) {
+  JsonWriter w;
+  w.begin_object();
+  w.value("format", "polyrad series operator");
+  w.value("scene_file", q.scene_file);
+  w.value("scene_hash", std::to_string(q.scene_hash));
+  w.value("output", series_output_name(q.output));
+  w.value("basis", series_basis_name(q.basis));
+  w.value("precision", value_precision_name(q.precision));
+  w.value("rows", static_cast<long long>(q.rows()));
+  w.value("nnz", static_cast<long long>(q.nnz()));
+  w.value("width", q.width).value("height", q.height);
+  w.begin_object("gather")
+      .value("diffuse", q.gather.diffuse == DiffuseMode::kSmooth ? "smooth" : "flat")
+      .value("pixel_grid", q.gather.pixel_grid)
+      .value("lobe_samples", q.gather.lobe_samples)
+      .value("specular", q.gather.specular)
+      .value("seed", static_cast<long long>(q.gather.seed))
+      .end_object();
+  w.value("num_patches", q.layout.num_patches);
+  w.value("links", static_cast<long long>(q.layout.links.size()));
+  w.begin_array("columns");
+  for (const auto& c : q.columns) {
+    w.begin_object().value("object", c.object).value("patch", c.patch);
+    w.begin_array("emission").element(c.emission[0]).element(c.emission[1]).element(c.emission[2]).end_array();
+    w.end_object();
+  }
+  w.end_array();
+  const SeriesReport& r = q.report;
+  w.begin_object("report")
+      .value("order", r.order)
+      .value("max_albedo", r.max_albedo)
+      .value("apriori_bound", r.apriori_bound)
+      .value("aposteriori_estimate", r.aposteriori_estimate)
+      .value("spectral_radius", r.spectral_radius)
+      .value("dropped_energy", r.dropped_energy)
+      .value("dropped_relative", r.dropped_relative)
+      .value("seconds", r.seconds);
+  w.begin_array("term_norms");
+  for (double x : r.term_norms) w.element(x);
+  w.end_array().end_object();
+  w.begin_array("sections");
+  for (const auto& s : sections)
+    w.begin_object().value("name", s.name).value("offset", s.offset).value("size", s.size).end_object();
+  w.end_array();
+  w.end_object();
+  return w.str();
+}
+
+// Assembles the whole file in memory: small enough for the scenes polyrad targets, and the
+// checksum is then one pass.
+std::string encode(const SeriesOperator& q) {
+  const std::size_t value_size = q.precision == ValuePrecision::kFloat ? 4 : 2;
+  struct Blob {
+    const char* name;
+    const void* data;
+    std::size_t size;
+  };
+  std::vector<std::uint32_t> link_pairs;
+  for (const auto& l : q.layout.links) {
+    link_pairs.push_back(static_cast<std::uint32_t>(l.from));
+    link_pairs.push_back(static_cast<std::uint32_t>(l.to));
+  }
+  std::vector<Blob> blobs = {
+      {"row_start", q.start(), sizeof(std::int64_t) * static_cast<std::size_t>(q.rows() + 1)},
+      {"column", q.column(), sizeof(std::uint32_t) * static_cast<std::size_t>(q.nnz())},
+      {"values", q.values(), 3 * value_size * static_cast<std::size_t>(q.nnz())},
+      {"links", link_pairs.data(), sizeof(std::uint32_t) * link_pairs.size()},
+      {"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()},
+  };
+  // The header holds the section table, whose offsets depend on the header's length: iterate
+  // until the length settles (digits only grow, so this ends).
+  std::vector<Section> sections(blobs.size());
+  std::string header;
+  std::size_t body = 0;
+  for (int pass = 0; pass < 8; ++pass) {
+    body = aligned(16 + header.size());
+    std::size_t at = body;
+    for (size_t b = 0; b < blobs.size(); ++b) {
+      sections[b] = {blobs[b].name, at, blobs[b].size};
+      at = aligned(at + blobs[b].size);
+    }
+    std::string next = header_json(q, sections);
+    if (next.size() == header.size()) {
+      header = next;
+      break;
+    }
+    header = next;
+  }
+  std::size_t end = sections.back().offset + sections.back().size;
+  std::string bytes(aligned(end) + 8, '\0');
+  std::memcpy(&bytes[0], kMagic, 8);
+  std::uint32_t version = kPrtVersion, header_length = static_cast<std::uint32_t>(header.size());
+  std::memcpy(&bytes[8], &version, 4);
+  std::memcpy(&bytes[12], &header_length, 4);
+  std::memcpy(&bytes[16], header.data(), header.size());
+  for (size_t b = 0; b < blobs.size(); ++b)
+    if (blobs[b].size) std::memcpy(&bytes[sections[b].offset], blobs[b].data, blobs[b].size);
+  std::uint64_t sum = prt_checksum(bytes.data(), bytes.size() - 8);
+  std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
+  return bytes;
+}
+
+[[noreturn]] void refuse(const std::string& name, const std::string& why) {
+  throw InputError(SourceLocation{name}, "not a usable polyrad operator file: " + why);
+}
+
+const JsonValue& member(const JsonValue& v, const char* key, JsonValue::Kind kind,
+                        const std::string& name) {
+  const JsonValue* m = v.is(JsonValue::Kind::kObject) ? v.find(key) : nullptr;
+  if (!m || !m->is(kind)) refuse(name, std::string("header field '") + key + "' is missing or malformed");
+  return *m;
+}
+
+double number(const JsonValue& v, const char* key, const std::string& name) {
+  return member(v, key, JsonValue::Kind::kNumber, name).number;
+}
+
+std::int64_t count(const JsonValue& v, const char* key, const std::string& name, double limit) {
+  double x = number(v, key, name);
+  if (!(x >= 0.0 && x <= limit && x == std::floor(x))) refuse(name, std::string("header field '") + key + "' is out of range");
+  return static_cast<std::int64_t>(x);
+}
+
+}  // namespace
+
+std::uint64_t prt_checksum(const void* data, std::size_t size) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  std::uint64_t h = 0x9e3779b97f4a7c15ull ^ size;
+  std::size_t n = size / 8;
+  for (std::size_t k = 0; k < n; ++k) {
+    std::uint64_t w;
+    std::memcpy(&w, p + 8 * k, 8);
+    h = (h ^ w) * 0x100000001b3ull;
+    h ^= h >> 29;
+  }
+  for (std::size_t k = 8 * n; k < size; ++k) h = (h ^ p[k]) * 0x100000001b3ull;
+  return mix64(h);
+}
+
+void write_prt(const SeriesOperator& q, const std::string& path) {
+  write_file_atomic(path, encode(q));
+}
+
+SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::string& name) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  if (reinterpret_cast<std::uintptr_t>(data) % 8 != 0)
+    throw std::invalid_argument("read_prt_bytes needs 8-byte aligned data");
+  if (size < 24) refuse(name, "the file is too short (truncated?)");
+  if (std::memcmp(bytes, kMagic, 8) != 0) refuse(name, "wrong magic number (not a .prt file)");
+  std::uint32_t version, header_length;
+  std::memcpy(&version, bytes + 8, 4);
+  std::memcpy(&header_length, bytes + 12, 4);
+  if (version != kPrtVersion)
+    refuse(name, "format version " + std::to_string(version) + ", this polyrad reads version " +
+                     std::to_string(kPrtVersion));
+  if (16 + static_cast<std::size_t>(header_length) + 8 > size) refuse(name, "the file is truncated");
+  std::uint64_t stored;
+  std::memcpy(&stored, bytes + size - 8, 8);
+  if (stored != prt_checksum(bytes, size - 8)) refuse(name, "checksum mismatch (corrupted or truncated)");
+
+  JsonValue h;
+  try {
+    h = parse_json(std::string_view(reinterpret_cast<const char*>(bytes + 16), header_length), name);
+  } catch (const InputError& e) {
+    refuse(name, std::string("the header is not valid JSON: ") + e.message());
+  }
+  SeriesOperator q;
+  const std::string& output = member(h, "output", JsonValue::Kind::kString, name).string;
+  const std::string& basis = member(h, "basis", JsonValue::Kind::kString, name).string;
+  const std::string& precision = member(h, "precision", JsonValue::Kind::kString, name).string;
+  if (output != "view" && output != "solution") refuse(name, "unknown output '" + output + "'");
+  if (basis != "patch" && basis != "object") refuse(name, "unknown basis '" + basis + "'");
+  if (precision != "float" && precision != "half") refuse(name, "unknown precision '" + precision + "'");
+  q.output = output == "view" ? SeriesOutput::kView : SeriesOutput::kSolution;
+  q.basis = basis == "patch" ? SeriesBasis::kPatch : SeriesBasis::kObject;
+  q.precision = precision == "float" ? ValuePrecision::kFloat : ValuePrecision::kHalf;
+  q.scene_file = member(h, "scene_file", JsonValue::Kind::kString, name).string;
+  const std::string& hash = member(h, "scene_hash", JsonValue::Kind::kString, name).string;
+  try {
+    size_t used = 0;
+    q.scene_hash = std::stoull(hash, &used);
+    if (used != hash.size()) throw std::invalid_argument(hash);
+  } catch (const std::exception&) {
+    refuse(name, "the scene hash is malformed");
+  }
+  const double limit = static_cast<double>(size);
+  const std::int64_t rows = count(h, "rows", name, limit);
+  const std::int64_t nnz = count(h, "nnz", name, limit);
+  q.width = static_cast<int>(count(h, "width", name, 1 << 16));
+  q.height = static_cast<int>(count(h, "height", name, 1 << 16));
+  if (q.output == SeriesOutput::kView && rows != static_cast<std::int64_t>(q.width) * q.height)
+    refuse(name, "rows do not match the image size");
+  const JsonValue& g = member(h, "gather", JsonValue::Kind::kObject, name);
+  q.gather.diffuse = member(g, "diffuse", JsonValue::Kind::kString, name).string == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
+  q.gather.pixel_grid = static_cast<int>(count(g, "pixel_grid", name, 16));
+  q.gather.lobe_samples = static_cast<int>(count(g, "lobe_samples", name, 4096));
+  q.gather.specular = member(g, "specular", JsonValue::Kind::kBool, name).boolean;
+  q.gather.seed = static_cast<std::uint64_t>(count(g, "seed", name, 9e15));
+  q.layout.num_patches = static_cast<int>(count(h, "num_patches", name, limit));
+  const std::int64_t links = count(h, "links", name, limit);
+
+  for (const auto& c : member(h, "columns", JsonValue::Kind::kArray, name).array) {
+    SeriesColumn col;
+    col.object = member(c, "object", JsonValue::Kind::kString, name).string;
+    double patch = number(c, "patch", name);
+    if (!(patch >= -1 && patch < q.layout.num_patches && patch == std::floor(patch))) refuse(name, "a column's patch is out of range");
+    col.patch = static_cast<PatchId>(patch);
+    const auto& e = member(c, "emission", JsonValue::Kind::kArray, name).array;
+    if (e.size() != 3) refuse(name, "a column's emission is malformed");
+    for (int k = 0; k < 3; ++k) {
+      if (!e[k].is(JsonValue::Kind::kNumber)) refuse(name, "a column's emission is malformed");
+      col.emission[k] = e[k].number;
+    }
+    q.columns.push_back(col);
+  }
+  if (q.columns.empty() || q.columns.size() > (1ull << 31)) refuse(name, "the operator has no columns");
+  const JsonValue& r = member(h, "report", JsonValue::Kind::kObject, name);
+  q.report.order = static_cast<int>(count(r, "order", name, 1e9));
+  q.report.max_albedo = number(r, "max_albedo", name);
+  q.report.spectral_radius = number(r, "spectral_radius", name);
+  q.report.dropped_energy = number(r, "dropped_energy", name);
+  q.report.dropped_relative = number(r, "dropped_relative", name);
+  q.report.seconds = number(r, "seconds", name);
+  for (const char* key : {"apriori_bound", "aposteriori_estimate"}) {
+    const JsonValue* v = r.find(key);
+    double x = v && v->is(JsonValue::Kind::kNumber) ? v->number : INFINITY;  // null: unbounded
+    (std::string(key) == "apriori_bound" ? q.report.apriori_bound : q.report.aposteriori_estimate) = x;
+  }
+  for (const auto& x : member(r, "term_norms", JsonValue::Kind::kArray, name).array)
+    q.report.term_norms.push_back(x.is(JsonValue::Kind::kNumber) ? x.number : INFINITY);
+
+  // Sections: in bounds, aligned, of the sizes the counts imply.
+  const std::size_t value_size = q.precision == ValuePrecision::kFloat ? 4 : 2;
+  const std::size_t data_end = size - 8;
+  auto section = [&](const char* key, std::size_t expect) -> const unsigned char* {
+    for (const auto& s : member(h, "sections", JsonValue::Kind::kArray, name).array) {
+      if (!s.is(JsonValue::Kind::kObject) || member(s, "name", JsonValue::Kind::kString, name).string != key) continue;
+      std::size_t offset = static_cast<std::size_t>(count(s, "offset", name, limit));
+      std::size_t length = static_cast<std::size_t>(count(s, "size", name, limit));
+      if (length != expect) refuse(name, std::string("section '") + key + "' has the wrong size");
+      if (offset % kAlign != 0 || offset < 16 + header_length || offset > data_end || length > data_end - offset)
+        refuse(name, std::string("section '") + key + "' lies outside the file");
+      return bytes + offset;
+    }
+    refuse(name, std::string("section '") + key + "' is missing");
+  };
+  const auto* start = reinterpret_cast<const std::int64_t*>(section("row_start", 8 * static_cast<std::size_t>(rows + 1)));
+  const auto* column = reinterpret_cast<const std::uint32_t*>(section("column", 4 * static_cast<std::size_t>(nnz)));
+  const void* values = section("values", 3 * value_size * static_cast<std::size_t>(nnz));
+  const auto* link_pairs = reinterpret_cast<const std::uint32_t*>(section("links", 8 * static_cast<std::size_t>(links)));
+  const auto* flux = reinterpret_cast<const double*>(section("flux_weight", 8 * static_cast<std::size_t>(q.layout.num_patches + links)));
+  // Indices must be safe to follow: rows non-decreasing up to nnz, columns below cols.
+  if (start[0] != 0 || start[rows] != nnz) refuse(name, "the row table is inconsistent");
+  for (std::int64_t k = 0; k < rows; ++k)
+    if (start[k + 1] < start[k]) refuse(name, "the row table is inconsistent");
+  for (std::int64_t k = 0; k < nnz; ++k)
+    if (column[k] >= q.columns.size()) refuse(name, "a column index is out of range");
+  q.layout.links.resize(links);
+  q.layout.link_start.assign(q.layout.num_patches + 1, 0);
+  for (std::int64_t l = 0; l < links; ++l) {
+    Link link{static_cast<PatchId>(link_pairs[2 * l]), static_cast<PatchId>(link_pairs[2 * l + 1])};
+    if (link.from >= q.layout.num_patches || link.to >= q.layout.num_patches ||
+        (l > 0 && (link.from < q.layout.links[l - 1].from ||
+                   (link.from == q.layout.links[l - 1].from && link.to <= q.layout.links[l - 1].to))))
+      refuse(name, "the link table is inconsistent");
+    q.layout.links[l] = link;
+    ++q.layout.link_start[link.from + 1];
+  }
+  for (int p = 0; p < q.layout.num_patches; ++p) q.layout.link_start[p + 1] += q.layout.link_start[p];
+  q.layout.flux_weight.assign(flux, flux + q.layout.num_patches + links);
+  if (q.output == SeriesOutput::kSolution && rows != q.layout.size()) refuse(name, "rows do not match the unknowns");
+  q.report.nnz = nnz;
+  q.set_view(rows, start, column, values, nullptr);
+  q.report.bytes = q.bytes();
+  return q;
+}
+
+SeriesOperator read_prt(const std::string& path) {
+  int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) throw InputError(SourceLocation{path}, std::string("cannot open the operator file: ") + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || st.st_size <= 0) {
+    ::close(fd);
+    throw InputError(SourceLocation{path}, "the operator file is empty or unreadable");
+  }
+  const auto size = static_cast<std::size_t>(st.st_size);
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+  ::close(fd);
+  if (map == MAP_FAILED) throw InputError(SourceLocation{path}, std::string("cannot map the operator file: ") + std::strerror(errno));
+  std::shared_ptr<const void> keep(map, [size](const void* p) { ::munmap(const_cast<void*>(p), size); });
+  SeriesOperator q = read_prt_bytes(map, size, path);
+  q.set_view(q.rows(), q.start(), q.column(), q.values(), keep);
+  return q;
+}
+
+}  // namespace polyrad

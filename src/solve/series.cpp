@@ -1,0 +1,400 @@
+// The truncated power series and its product (series.h); papers/glossy-radiosity.md, sec. 5-6.
+#include "polyrad/series.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "polyrad/half.h"
+#include "polyrad/progress.h"
+
+namespace polyrad {
+
+const char* series_output_name(SeriesOutput o) { return o == SeriesOutput::kView ? "view" : "solution"; }
+const char* value_precision_name(ValuePrecision p) { return p == ValuePrecision::kFloat ? "float" : "half"; }
+const char* series_basis_name(SeriesBasis b) { return b == SeriesBasis::kPatch ? "patch" : "object"; }
+
+namespace {
+
+// Every half value's float, so that the product converts by one table load (256 KiB, cached).
+const float* half_table() {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(65536);
+    for (std::uint32_t h = 0; h < 65536; ++h) t[h] = half_to_float(static_cast<std::uint16_t>(h));
+    return t;
+  }();
+  return table.data();
+}
+
+// Growth of the term norms for this many terms in a row means the series diverges.
+constexpr int kGrowthTerms = 8;
+
+struct Terms {
+  int order = 0;
+  std::vector<double> norms;  // relative to ||S||
+  double spectral_radius = 0.0;
+  double aposteriori = 0.0;
+};
+
+// q, the spectral radius the term norms decay by. The ratio of successive norms of a
+// non-negative operator's powers rises toward it, so the last ratio underestimates it (by 10
+// percent at K = 6 on the mirror cube): the ratios are extrapolated by Aitken's delta-squared,
+// and the result capped by a_max, which bounds the spectral radius (section 5).
+double ratio_estimate(const std::vector<double>& norms, double a_max) {
+  const size_t n = norms.size();
+  auto ratio = [&](size_t k) { return norms[k - 1] > 0.0 ? norms[k] / norms[k - 1] : 0.0; };
+  if (n < 2) return 0.0;
+  double r2 = ratio(n - 1);
+  double q = r2;
+  if (n >= 4) {
+    double r1 = ratio(n - 2), r0 = ratio(n - 3);
+    double curvature = r2 - 2.0 * r1 + r0;
+    double aitken = curvature != 0.0 ? r2 - (r2 - r1) * (r2 - r1) / curvature : r2;
+    // A rising sequence extrapolates upward; otherwise keep the largest recent ratio.
+    q = std::max({r0, r1, r2});
+    if (r2 > r1 && aitken > q && std::isfinite(aitken)) q = aitken;
+  }
+  return a_max > 0.0 ? std::min(q, a_max) : q;
+}
+
+// Term norms ||T^n S|| of all columns together (S = 1 on every emitting patch; every column is
+// non-negative, so the norm of the sum is the sum of the norms) and the order K: given, or the
+// smallest K whose a-priori bound or a-posteriori estimate meets the tolerance. Channels decay
+// at their own rates (coloured reflectances), so the estimate is the worst channel's: then any
+// emission colour meets the tolerance.
+Terms choose_order(const TransportOperator& t, const Field& s, const SeriesOptions& o) {
+  const double a = t.max_albedo();
+  auto channel_norms = [&](const Field& f) {
+    Eigen::Array3d n = Eigen::Array3d::Zero();
+    for (Eigen::Index r = 0; r < f.rows(); ++r) n += t.flux_weight()[r] * f.row(r).array().abs().transpose();
+    return n;
+  };
+  const Eigen::Array3d s_norm = channel_norms(s);
+  Terms terms;
+  terms.norms.push_back(1.0);
+  if (s_norm.sum() == 0.0) return terms;
+  std::vector<double> channel[3] = {{1.0}, {1.0}, {1.0}};
+  Eigen::Array3d acc = Eigen::Array3d::Ones();
+  Field term = s, next;
+  const int limit = o.order >= 0 ? o.order : o.max_order;
+  for (int n = 1; n <= limit; ++n) {
+    t.apply(term, next);
+    term.swap(next);
+    Eigen::Array3d norm = channel_norms(term) / s_norm.max(1e-300);
+    double total = channel_norms(term).sum() / s_norm.sum();
+    if (!norm.isFinite().all())
+      throw NumericalError("the power series produced non-finite terms at n = " + std::to_string(n));
+    terms.norms.push_back(total);
+    acc += norm;  // non-negative terms: the norm of the sum is the sum of the norms
+    int m = static_cast<int>(terms.norms.size());
+    if (m > kGrowthTerms + 1) {
+      bool growing = true;
+      for (int k = m - kGrowthTerms; k < m; ++k) growing = growing && terms.norms[k] > terms.norms[k - 1];
+      if (growing && total > 1.0) {
+        std::ostringstream msg;
+        msg << "the power series diverges: its terms grew by " << total / terms.norms[m - 2]
+            << " per order over the last " << kGrowthTerms << " (spectral radius above 1)";
+        if (a > 1.0) msg << "; the largest material albedo bound is " << a << " > 1";
+        throw NumericalError(msg.str());
+      }
+    }
+    terms.spectral_radius = 0.0;
+    terms.aposteriori = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      if (s_norm[c] == 0.0) continue;
+      channel[c].push_back(norm[c]);
+      double q = ratio_estimate(channel[c], a);
+      terms.spectral_radius = std::max(terms.spectral_radius, q);
+      terms.aposteriori = std::max(terms.aposteriori, q < 1.0 ? norm[c] * q / (1.0 - q) / acc[c] : INFINITY);
+    }
+    terms.order = n;
+    if (o.order >= 0) continue;
+    double apriori = a < 1.0 ? std::pow(a, n + 1) / (1.0 - a) : INFINITY;
+    if (apriori <= o.tolerance || (n >= 3 && terms.aposteriori <= o.tolerance)) return terms;
+  }
+  if (o.order < 0)
+    throw NumericalError("the power series did not reach the tolerance " +
+                         std::to_string(o.tolerance) + " within " + std::to_string(o.max_order) +
+                         " terms");
+  return terms;
+}
+
+}  // namespace
+
+std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene,
+                                         SeriesBasis basis) {
+  std::vector<SeriesColumn> columns;
+  if (basis == SeriesBasis::kObject) {
+    for (const auto& o : scene.objects)
+      if (o.is_emitter) columns.push_back({o.name, -1, o.emission});
+    return columns;
+  }
+  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+    if (patches[p].emitter)
+      columns.push_back({scene.objects[patches[p].object].name, p, patches[p].emission});
+  return columns;
+}
+
+SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& patches,
+                                 const Scene& scene, const Gather* gather,
+                                 const SeriesOptions& o) {
+  auto t0 = std::chrono::steady_clock::now();
+  const bool view = o.output == SeriesOutput::kView;
+  if (view && !gather) throw InputError("a view-mode series needs the camera gather");
+  SeriesOperator q;
+  q.output = o.output;
+  q.basis = o.basis;
+  q.precision = o.precision;
+  q.columns = series_columns(patches, scene, o.basis);
+  q.layout = t.layout();
+  q.scene_file = scene.file;
+  q.scene_hash = scene.hash;
+  if (view) {
+    q.width = gather->width;
+    q.height = gather->height;
+  }
+  const auto cols = static_cast<std::int64_t>(q.columns.size());
+  if (cols == 0) throw InputError("the scene has no emitting object: nothing to precompute");
+
+  // Which patches each column lights.
+  std::vector<std::vector<PatchId>> lit(cols);
+  for (std::int64_t c = 0; c < cols; ++c) {
+    if (q.columns[c].patch >= 0) {
+      lit[c].push_back(q.columns[c].patch);
+      continue;
+    }
+    ObjectId obj = scene.find_object(q.columns[c].object);
+    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+      if (patches[p].object == obj) lit[c].push_back(p);
+  }
+  Field s = Field::Zero(t.size(), 3);
+  for (const auto& list : lit)
+    for (PatchId p : list) s.row(p).setOnes();
+  Terms terms = choose_order(t, s, o);
+  const int order = terms.order;
+
+  const std::int64_t rows = view ? static_cast<std::int64_t>(gather->width) * gather->height : t.size();
+  std::vector<std::vector<std::int64_t>> batch_start;
+  std::vector<std::vector<std::uint32_t>> batch_column;
+  std::vector<std::vector<float>> batch_value;
+  double dropped = 0.0, total = 0.0;
+  const int batch = std::max(1, o.column_batch);
+  Progress progress("series precompute", (cols + batch - 1) / batch * (order + 1));
+
+  for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
+    const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
+    // P_K S for these columns by the running sum, u_K = sum_{n<=K} T^n S (eq. 10).
+    FieldBlock term = FieldBlock::Zero(t.size(), 3 * width), next, acc;
+    for (int c = 0; c < width; ++c)
+      for (PatchId p : lit[c0 + c]) term.block(p, 3 * c, 1, 3).setOnes();
+    acc = term;
+    progress.advance();
+    for (int n = 1; n <= order; ++n) {
+      t.apply(term, next);
+      term.swap(next);
+      acc += term;
+      progress.advance();
+    }
+    // The rows: the unknowns themselves, or the pixels through the gather.
+    FieldBlock out;
+    if (view) {
+      out = FieldBlock::Zero(rows, 3 * width);
+      const auto& g = gather->g;
+#pragma omp parallel for schedule(static)
+      for (std::int64_t r = 0; r < rows; ++r)
+        for (auto k = g.start[r]; k < g.start[r + 1]; ++k) {
+          const double* x = acc.data() + acc.cols() * static_cast<Eigen::Index>(g.column[k]);
+          double* y = out.data() + out.cols() * r;
+          for (int c = 0; c < 3 * width; ++c) y[c] += g.value[k][c % 3] * x[c];
+        }
+    } else {
+      out.swap(acc);
+    }
+    // Drop small entries; measure what they would have added for the scene's emission.
+    std::vector<double> column_max(width, 0.0);
+    for (std::int64_t r = 0; r < rows; ++r)
+      for (int c = 0; c < width; ++c)
+        column_max[c] = std::max(column_max[c], out.block(r, 3 * c, 1, 3).maxCoeff());
+    std::vector<std::int64_t> bs{0};
+    std::vector<std::uint32_t> bc;
+    std::vector<float> bv;
+    for (std::int64_t r = 0; r < rows; ++r) {
+      const double w = view ? 1.0 : t.flux_weight()[r];
+      for (int c = 0; c < width; ++c) {
+        const SeriesColumn& col = q.columns[c0 + c];
+        double v[3] = {out(r, 3 * c), out(r, 3 * c + 1), out(r, 3 * c + 2)};
+        double mass = w * (v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
+        total += mass;
+        double largest = std::max({v[0], v[1], v[2]});
+        if (largest <= 0.0) continue;
+        if (largest < o.drop * column_max[c]) {
+          dropped += mass;
+          continue;
+        }
+        bc.push_back(static_cast<std::uint32_t>(c0 + c));
+        for (double x : v) bv.push_back(static_cast<float>(x));
+      }
+      bs.push_back(static_cast<std::int64_t>(bc.size()));
+    }
+    batch_start.push_back(std::move(bs));
+    batch_column.push_back(std::move(bc));
+    batch_value.push_back(std::move(bv));
+  }
+  progress.finish();
+
+  // Rows of Q: each batch's part of the row, batches in column order.
+  std::vector<std::int64_t> start(rows + 1, 0);
+  for (std::int64_t r = 0; r < rows; ++r) {
+    std::int64_t n = 0;
+    for (const auto& bs : batch_start) n += bs[r + 1] - bs[r];
+    start[r + 1] = start[r] + n;
+  }
+  std::vector<std::uint32_t> column(start[rows]);
+  std::vector<float> values_f;
+  std::vector<std::uint16_t> values_h;
+  (o.precision == ValuePrecision::kFloat ? values_f.resize(3 * start[rows]) : values_h.resize(3 * start[rows]));
+#pragma omp parallel for schedule(static)
+  for (std::int64_t r = 0; r < rows; ++r) {
+    std::int64_t at = start[r];
+    for (size_t b = 0; b < batch_start.size(); ++b)
+      for (auto k = batch_start[b][r]; k < batch_start[b][r + 1]; ++k, ++at) {
+        column[at] = batch_column[b][k];
+        for (int ch = 0; ch < 3; ++ch) {
+          float v = batch_value[b][3 * k + ch];
+          if (o.precision == ValuePrecision::kFloat) values_f[3 * at + ch] = v;
+          else values_h[3 * at + ch] = float_to_half(v);
+        }
+      }
+  }
+  q.set_data(rows, std::move(start), std::move(column), std::move(values_f), std::move(values_h));
+
+  SeriesReport& rep = q.report;
+  rep.order = order;
+  rep.max_albedo = t.max_albedo();
+  rep.apriori_bound = rep.max_albedo < 1.0 ? std::pow(rep.max_albedo, order + 1) / (1.0 - rep.max_albedo) : INFINITY;
+  rep.aposteriori_estimate = terms.aposteriori;
+  rep.spectral_radius = terms.spectral_radius;
+  rep.term_norms = terms.norms;
+  rep.dropped_energy = dropped;
+  rep.dropped_relative = total > 0.0 ? dropped / total : 0.0;
+  rep.nnz = q.nnz();
+  rep.bytes = q.bytes();
+  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (view) q.gather = gather->options;
+  return q;
+}
+
+void SeriesOperator::set_data(std::int64_t rows, std::vector<std::int64_t> start,
+                              std::vector<std::uint32_t> column, std::vector<float> values_f,
+                              std::vector<std::uint16_t> values_h) {
+  rows_ = rows;
+  own_start_ = std::move(start);
+  own_column_ = std::move(column);
+  own_f_ = std::move(values_f);
+  own_h_ = std::move(values_h);
+  start_ = own_start_.data();
+  column_ = own_column_.data();
+  values_ = precision == ValuePrecision::kFloat ? static_cast<const void*>(own_f_.data())
+                                               : static_cast<const void*>(own_h_.data());
+  keep_.reset();
+}
+
+void SeriesOperator::set_view(std::int64_t rows, const std::int64_t* start,
+                              const std::uint32_t* column, const void* values,
+                              std::shared_ptr<const void> keep) {
+  rows_ = rows;
+  start_ = start;
+  column_ = column;
+  values_ = values;
+  keep_ = std::move(keep);
+  own_start_.clear();
+  own_column_.clear();
+  own_f_.clear();
+  own_h_.clear();
+}
+
+std::size_t SeriesOperator::bytes() const {
+  std::size_t value_size = precision == ValuePrecision::kFloat ? sizeof(float) : sizeof(std::uint16_t);
+  return static_cast<std::size_t>(rows_ + 1) * sizeof(std::int64_t) +
+         static_cast<std::size_t>(nnz()) * (sizeof(std::uint32_t) + 3 * value_size);
+}
+
+void SeriesOperator::apply(const float* e, float* out) const {
+  const std::int64_t rows = rows_;
+  const std::int64_t* start = start_;
+  const std::uint32_t* column = column_;
+  if (precision == ValuePrecision::kFloat) {
+    const float* v = static_cast<const float*>(values_);
+#pragma omp parallel for schedule(static, 1024)
+    for (std::int64_t r = 0; r < rows; ++r) {
+      float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+      for (auto k = start[r]; k < start[r + 1]; ++k) {
+        const float* x = e + 3 * static_cast<std::size_t>(column[k]);
+        a0 += v[3 * k] * x[0];
+        a1 += v[3 * k + 1] * x[1];
+        a2 += v[3 * k + 2] * x[2];
+      }
+      out[3 * r] = a0;
+      out[3 * r + 1] = a1;
+      out[3 * r + 2] = a2;
+    }
+    return;
+  }
+  const std::uint16_t* v = static_cast<const std::uint16_t*>(values_);
+  const float* table = half_table();
+#pragma omp parallel for schedule(static, 1024)
+  for (std::int64_t r = 0; r < rows; ++r) {
+    float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+    for (auto k = start[r]; k < start[r + 1]; ++k) {
+      const float* x = e + 3 * static_cast<std::size_t>(column[k]);
+      a0 += table[v[3 * k]] * x[0];
+      a1 += table[v[3 * k + 1]] * x[1];
+      a2 += table[v[3 * k + 2]] * x[2];
+    }
+    out[3 * r] = a0;
+    out[3 * r + 1] = a1;
+    out[3 * r + 2] = a2;
+  }
+}
+
+std::vector<std::string> SeriesOperator::light_names() const {
+  std::vector<std::string> names;
+  for (const auto& c : columns)
+    if (names.empty() || names.back() != c.object) names.push_back(c.object);
+  return names;
+}
+
+std::vector<float> SeriesOperator::column_emission(const std::map<std::string, Rgb>& overrides) const {
+  std::vector<std::string> names = light_names();
+  for (const auto& [name, value] : overrides)
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      std::string known;
+      for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw InputError("'" + name + "' is not a light of this operator (lights: " + known + ")");
+    }
+  std::vector<float> e(3 * columns.size());
+  for (size_t c = 0; c < columns.size(); ++c) {
+    auto it = overrides.find(columns[c].object);
+    Rgb v = it != overrides.end() ? it->second : columns[c].emission;
+    for (int ch = 0; ch < 3; ++ch) e[3 * c + ch] = static_cast<float>(v[ch]);
+  }
+  return e;
+}
+
+Image series_image(const SeriesOperator& q, const std::vector<float>& out) {
+  POLYRAD_CHECK(q.output == SeriesOutput::kView);
+  Image img(q.width, q.height);
+  img.rgb.assign(out.begin(), out.begin() + 3 * q.rows());
+  return img;
+}
+
+Field series_field(const SeriesOperator& q, const std::vector<float>& out) {
+  POLYRAD_CHECK(q.output == SeriesOutput::kSolution);
+  Field u(q.rows(), 3);
+  for (std::int64_t r = 0; r < q.rows(); ++r)
+    for (int c = 0; c < 3; ++c) u(r, c) = out[3 * r + c];
+  return u;
+}
+
+}  // namespace polyrad
