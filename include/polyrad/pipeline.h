@@ -27,6 +27,9 @@ struct PipelineOptions {
   SpecularOptions specular;
   // false: the classic system, every material reduced to its diffuse part.
   bool specular_transport = true;
+  // Recompute the specular rows at every sweep instead of storing them (section 4.1): the
+  // transfer is computed once to find the links, then its entries are released.
+  bool specular_on_the_fly = false;
   // Overrides every patch_size of the scene when > 0.
   double patch_size = 0.0;
 };

@@ -21,12 +21,15 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 #include "polyrad/brdf.h"
 #include "polyrad/form_factors.h"
 #include "polyrad/mesher.h"
+#include "polyrad/ray_caster.h"
 #include "polyrad/sparse.h"
+#include "polyrad/specular_transfer.h"
 
 namespace polyrad {
 
@@ -40,7 +43,16 @@ struct Link {
   PatchId to = 0;    // k
 };
 
-class SpecularTransfer;  // specular_transfer.h
+// Section 4.1: the specular rows recomputed from the transfer estimator at every application
+// instead of stored. The same seeds give the same numbers; the cost moves from memory (no W) to
+// time (every sweep traces the transfer's rays again). Everything pointed to must outlive T.
+struct OnTheFlySpecular {
+  const PatchSet* patches = nullptr;
+  const std::vector<Material>* materials = nullptr;
+  const FormFactors* ff = nullptr;
+  const RayCaster* caster = nullptr;
+  SpecularOptions options;
+};
 
 // Which unknown holds what: B_i at index i, S_{i->k} at num_patches + l. Enough to read, store
 // or gather a solution without the operator itself.
@@ -89,10 +101,17 @@ class TransportOperator {
   std::int64_t nnz_specular() const { return weights_.nnz() - nnz_diffuse_; }
   // The largest albedo bound over the materials that reflect (a_max of section 5).
   double max_albedo() const { return max_albedo_; }
+  bool on_the_fly() const { return on_the_fly_ != nullptr; }
 
  private:
   friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
-                                           const FormFactors&, const SpecularTransfer*);
+                                           const FormFactors&, const SpecularTransfer*,
+                                           const OnTheFlySpecular*);
+  // Link rows from the estimator: out[link rows] = (e +) colour * sum w x, x = in (or out itself,
+  // in place, for Gauss-Seidel); width values per row.
+  void recompute_link_rows(const double* in, double* out, Eigen::Index width, bool in_place,
+                           const Field* e) const;
+  std::shared_ptr<const OnTheFlySpecular> on_the_fly_;
   UnknownLayout layout_;
   Csr<float> weights_;
   std::vector<Eigen::Array3f> row_colour_;
@@ -101,9 +120,11 @@ class TransportOperator {
   double max_albedo_ = 0.0;
 };
 
-// Builds T from the form factors and, if given, the specular transfer. Materials are indexed by
-// Patch::material.
+// Builds T from the form factors and, if given, the specular transfer (which also decides the
+// links). With on_the_fly the link rows are not stored but recomputed at every application.
+// Materials are indexed by Patch::material.
 TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
-                                  const FormFactors& ff, const SpecularTransfer* specular);
+                                  const FormFactors& ff, const SpecularTransfer* specular,
+                                  const OnTheFlySpecular* on_the_fly = nullptr);
 
 }  // namespace polyrad

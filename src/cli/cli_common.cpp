@@ -70,11 +70,14 @@ void write_system(JsonWriter& w, const RadiositySystem& sys) {
       .value("entries", static_cast<long long>(sys.specular.entries()))
       .value("rays", st.rays)
       .value("pairs_unseen", st.pairs_unseen)
+      .value("dropped_hits", st.dropped_hits)
+      .value("balance_residual", st.balance_mismatch)
       .value("escaped_fraction", st.escaped_fraction)
       .value("bytes", sys.specular.bytes())
       .value("seconds", st.seconds)
       .end_object();
   w.begin_object("operator")
+      .value("on_the_fly", t.on_the_fly())
       .value("nnz_diffuse", static_cast<long long>(t.nnz_diffuse()))
       .value("nnz_specular", static_cast<long long>(t.nnz_specular()))
       .value("bytes", t.bytes())
@@ -117,6 +120,8 @@ void SystemFlags::add(CLI::App& app) {
                "Classic radiosity: every material reduced to its diffuse part");
   app.add_flag("--centre-point", centre_point,
                "Specular transfer by the seed's centre-point rho (for comparison only)");
+  app.add_flag("--specular-on-the-fly", on_the_fly,
+               "Recompute the specular transfer at every sweep instead of storing it");
   app.add_flag("--allow-unsafe-albedo", unsafe_albedo,
                "UNSAFE: accept materials whose albedo may exceed 1 (to test divergence detection)");
 }
@@ -133,6 +138,7 @@ PipelineOptions SystemFlags::pipeline() const {
   o.specular.samples = specular_samples;
   o.specular_transport = !classic;
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
+  o.specular_on_the_fly = on_the_fly;
   return o;
 }
 

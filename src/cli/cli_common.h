@@ -38,6 +38,7 @@ struct SystemFlags {
   int specular_samples = 16;
   bool classic = false;
   bool centre_point = false;
+  bool on_the_fly = false;
   bool unsafe_albedo = false;
   void add(CLI::App& app);
   PipelineOptions pipeline() const;

@@ -48,7 +48,17 @@ std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions
     specular = &sys->specular;
     sys->times.push_back({"specular_transfer", watch.lap()});
   }
-  sys->transport = build_transport(sys->patches, sys->scene.materials, sys->form_factors, specular);
+  if (options.specular_transport && options.specular_on_the_fly) {
+    OnTheFlySpecular source{&sys->patches, &sys->scene.materials, &sys->form_factors,
+                            sys->caster.get(), options.specular};
+    sys->transport = build_transport(sys->patches, sys->scene.materials, sys->form_factors,
+                                     specular, &source);
+    SpecularStats stats = sys->specular.stats;
+    sys->specular = SpecularTransfer{};  // its entries are recomputed when needed
+    sys->specular.stats = stats;
+  } else {
+    sys->transport = build_transport(sys->patches, sys->scene.materials, sys->form_factors, specular);
+  }
   sys->times.push_back({"operator", watch.lap()});
   return sys;
 }

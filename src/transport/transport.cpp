@@ -59,6 +59,30 @@ std::map<std::pair<PatchId, PatchId>, LinkId> active_links(const PatchSet& patch
   return active;
 }
 
+// Rows of the links of reflector i, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}) with
+// W_jik = R_jik F_ij / F_ik, from i's transfer entries. rows[l - link_start[i]] is link l's row.
+void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId i,
+                    const TransferEntry* entries, std::size_t count,
+                    std::vector<std::vector<Entry>>& rows) {
+  const auto first = layout.link_start[i], last = layout.link_start[i + 1];
+  rows.resize(last - first);
+  for (auto& r : rows) r.clear();
+  for (std::size_t e = 0; e < count; ++e) {
+    PatchId j = entries[e].from, k = entries[e].to;
+    Eigen::Index row = layout.link_unknown(i, k);
+    if (row < 0) continue;
+    double w = entries[e].fraction * ff.at(i, j) / ff.at(i, k);
+    auto& r = rows[row - layout.num_patches - first];
+    r.push_back({j, w});
+    Eigen::Index source = layout.link_unknown(j, i);
+    if (source >= 0) r.push_back({static_cast<std::int32_t>(source), w});
+  }
+  for (auto& r : rows) {
+    compact(r);
+    for (auto& e : r) e.weight = static_cast<float>(e.weight);  // as the stored operator keeps it
+  }
+}
+
 }  // namespace
 
 Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
@@ -70,8 +94,10 @@ Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
 }
 
 TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
-                                  const FormFactors& ff, const SpecularTransfer* specular) {
+                                  const FormFactors& ff, const SpecularTransfer* specular,
+                                  const OnTheFlySpecular* on_the_fly) {
   TransportOperator t;
+  if (on_the_fly) t.on_the_fly_ = std::make_shared<OnTheFlySpecular>(*on_the_fly);
   const auto n = static_cast<PatchId>(patches.size());
   t.layout_.num_patches = n;
   for (const auto& p : patches.patches) t.patch_emission_.push_back(p.emission);
@@ -119,24 +145,19 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
   }
   t.nnz_diffuse_ = t.weights_.nnz();
 
-  // Specular rows, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}), W_jik = R_jik F_ij / F_ik.
-  std::vector<std::vector<Entry>> link_rows(links.size());
-  if (specular) {
+  // Specular rows, eq. 7 (reflector_rows), stored unless they are recomputed on the fly.
+  std::vector<std::vector<Entry>> link_rows(links.size()), rows;
+  if (specular && !on_the_fly) {
+    std::vector<TransferEntry> entries;
     for (PatchId i = 0; i < n; ++i) {
-      for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e) {
-        PatchId j = specular->from[e], k = specular->to[e];
-        auto it = active.find({i, k});
-        if (it == active.end()) continue;
-        double w = specular->fraction[e] * ff.at(i, j) / ff.at(i, k);  // W_jik
-        auto& r = link_rows[it->second];
-        r.push_back({j, w});
-        auto src = active.find({j, i});
-        if (src != active.end()) r.push_back({n + src->second, w});
-      }
+      entries.clear();
+      for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e)
+        entries.push_back({specular->from[e], specular->to[e], specular->fraction[e]});
+      reflector_rows(t.layout_, ff, i, entries.data(), entries.size(), rows);
+      for (size_t r = 0; r < rows.size(); ++r) link_rows[t.layout_.link_start[i] + r] = std::move(rows[r]);
     }
   }
   for (LinkId l = 0; l < t.num_links(); ++l) {
-    compact(link_rows[l]);
     for (const auto& e : link_rows[l]) {
       t.weights_.column.push_back(e.column);
       t.weights_.value.push_back(static_cast<float>(e.weight));
@@ -155,6 +176,48 @@ Field TransportOperator::emission(const std::vector<Rgb>& patch_emission) const 
   Field e = Field::Zero(size(), 3);
   for (int i = 0; i < layout_.num_patches; ++i) e.row(i) = patch_emission[i].matrix().transpose();
   return e;
+}
+
+void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen::Index width,
+                                            bool in_place, const Field* e) const {
+  const OnTheFlySpecular& src = *on_the_fly_;
+  const auto n = static_cast<PatchId>(layout_.num_patches);
+  auto one = [&](PatchId i, std::vector<TransferEntry>& entries, std::vector<std::vector<Entry>>& rows,
+                 std::vector<double>& acc) {
+    if (layout_.link_start[i + 1] == layout_.link_start[i]) return;
+    entries.clear();
+    specular_entries_of(*src.patches, (*src.materials)[(*src.patches)[i].material], *src.ff,
+                        *src.caster, src.options, i, entries);
+    reflector_rows(layout_, *src.ff, i, entries.data(), entries.size(), rows);
+    for (size_t r = 0; r < rows.size(); ++r) {
+      const Eigen::Index row = n + layout_.link_start[i] + static_cast<Eigen::Index>(r);
+      std::fill(acc.begin(), acc.end(), 0.0);
+      const double* x_base = in_place ? out : in;
+      for (const auto& entry : rows[r]) {
+        const double* x = x_base + width * entry.column;
+        for (Eigen::Index c = 0; c < width; ++c) acc[c] += entry.weight * x[c];
+      }
+      const auto& colour = row_colour_[row];
+      double* y = out + width * row;
+      for (Eigen::Index c = 0; c < width; ++c)
+        y[c] = (e ? (*e)(row, c) : 0.0) + colour[c % 3] * acc[c];
+    }
+  };
+  if (in_place) {  // Gauss-Seidel: reflectors in order, as the stored rows are
+    std::vector<TransferEntry> entries;
+    std::vector<std::vector<Entry>> rows;
+    std::vector<double> acc(width);
+    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, acc);
+    return;
+  }
+#pragma omp parallel
+  {
+    std::vector<TransferEntry> entries;
+    std::vector<std::vector<Entry>> rows;
+    std::vector<double> acc(width);
+#pragma omp for schedule(dynamic, 1)
+    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, acc);
+  }
 }
 
 void TransportOperator::apply(const Field& in, Field& out) const {
@@ -178,6 +241,7 @@ void TransportOperator::apply(const Field& in, Field& out) const {
     out(r, 1) = c[1] * a1;
     out(r, 2) = c[2] * a2;
   }
+  if (on_the_fly_) recompute_link_rows(in.data(), out.data(), 3, false, nullptr);
 }
 
 void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
@@ -200,10 +264,12 @@ void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
       for (Eigen::Index c = 0; c < width; ++c) y[c] = colour[c % 3] * acc[c];
     }
   }
+  if (on_the_fly_) recompute_link_rows(in.data(), out.data(), width, false, nullptr);
 }
 
 void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
-  const Eigen::Index rows = size();
+  // Stored rows (all of them, or only the diffuse ones when the link rows are recomputed).
+  const Eigen::Index rows = on_the_fly_ ? layout_.num_patches : size();
   for (Eigen::Index r = 0; r < rows; ++r) {
     double a0 = 0.0, a1 = 0.0, a2 = 0.0;
     for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k) {
@@ -218,6 +284,7 @@ void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
     u(r, 1) = e(r, 1) + c[1] * a1;
     u(r, 2) = e(r, 2) + c[2] * a2;
   }
+  if (on_the_fly_) recompute_link_rows(nullptr, u.data(), 3, true, &e);
 }
 
 double TransportOperator::flux_norm(const Field& f) const {
