@@ -7,6 +7,7 @@ packages=(
   libeigen3-dev libembree-dev libopenimageio-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib
+  clang-14 libclang-rt-14-dev libomp-14-dev
 )
 
 missing=()

@@ -1,7 +1,25 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs the whole ctest suite.
+# Installs what is missing, builds, and runs the whole ctest suite; then the same suite under
+# AddressSanitizer + UndefinedBehaviorSanitizer (build/asan), then each fuzz target for
+# FUZZ_SECONDS (default 30 here). SANITIZE=0 skips the last two (local use; CI runs all).
+# See docs/testing.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/deps.sh
 dir=$(BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)
 ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" --timeout 900
+
+if [ "${SANITIZE:-1}" = "0" ]; then exit 0; fi
+
+# RelWithDebInfo keeps the sanitizers' stack traces readable at a moderate slowdown.
+asan=build/asan
+cmake -S . -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYRAD_SANITIZE=ON \
+  -DPOLYRAD_BUILD_BENCH=OFF >/dev/null
+cmake --build "$asan" -j "$(nproc)" >&2
+# Leaks count as failures (no suppressions needed so far: OpenMP, Embree and OpenImageIO run
+# clean). Any report stops the test program, so ctest sees a failure.
+ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:check_initialization_order=1:halt_on_error=1}" \
+UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}" \
+  ctest --test-dir "$asan" --output-on-failure -j "$(nproc)" --timeout 1800
+
+FUZZ_SECONDS="${FUZZ_SECONDS:-30}" ./scripts/fuzz.sh

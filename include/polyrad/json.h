@@ -27,6 +27,10 @@ class JsonValue {
   enum class Kind { kNull, kBool, kNumber, kString, kArray, kObject };
   using Member = std::pair<std::string, JsonValue>;
 
+  // Declared so that clang with libstdc++ need not define the implicit constructor while
+  // std::pair<std::string, JsonValue> is still incomplete (it rejects the header otherwise).
+  JsonValue() = default;
+
   Kind kind = Kind::kNull;
   bool boolean = false;
   double number = 0.0;

@@ -1,5 +1,6 @@
 // Stage 1 of scene loading: JSON text -> SceneDesc records (docs/scene-format.md).
 #include <cmath>
+#include <unordered_map>
 
 #include "polyrad/files.h"
 #include "polyrad/json.h"
@@ -181,13 +182,14 @@ SceneDesc parse_scene_text(const std::string& text, const std::string& file,
   }
   const JsonValue& objects = r.array("objects");
   if (objects.array.empty()) throw InputError(objects.where, "the scene has no objects");
+  std::unordered_map<std::string, size_t> first_use;  // a scan of all earlier names was quadratic
   for (size_t n = 0; n < objects.array.size(); ++n) {
     d.objects.push_back(read_object(objects.array[n], n));
-    for (size_t m = 0; m < n; ++m)
-      if (d.objects[m].name == d.objects[n].name)
-        throw InputError(d.objects[n].where, "object name '" + d.objects[n].name +
-                                                 "' is used twice (first at " +
-                                                 d.objects[m].where.str() + ")");
+    auto [earlier, fresh] = first_use.emplace(d.objects[n].name, n);
+    if (!fresh)
+      throw InputError(d.objects[n].where, "object name '" + d.objects[n].name +
+                                               "' is used twice (first at " +
+                                               d.objects[earlier->second].where.str() + ")");
   }
   r.finish();
   return d;

@@ -1,6 +1,8 @@
 // Stage 2 of scene loading: cross-references, meshes, face checks -> Scene.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <unordered_map>
 
 #include "polyrad/files.h"
 #include "polyrad/scene.h"
@@ -23,6 +25,10 @@ void validate_face(const Face& f, const SourceLocation& where, const std::string
     for (size_t b = a + 1; b < n; ++b) size = std::max(size, (v[a] - v[b]).norm());
   }
   double area = 0.5 * normal.norm();
+  // Past about 1e150 the squares overflow: the normal would normalise to zero and every check
+  // below would pass whatever the shape.
+  if (!std::isfinite(area) || !std::isfinite(size * size))
+    throw InputError(where, what + " has coordinates too large to compute with");
   if (!(size > 0.0) || !(area > 1e-9 * size * size))
     throw InputError(where, what + " is degenerate (zero area)");
   normal.normalize();
@@ -59,17 +65,21 @@ Scene resolve_scene(const SceneDesc& desc) {
   s.file = desc.file;
   s.camera = desc.camera;
   s.hash = desc.text_hash;
-  for (const auto& m : desc.materials) s.materials.push_back(m.material);
+  // Names to ids through a map: a scan per object was quadratic in hostile files.
+  std::unordered_map<std::string, MaterialId> material_ids;
+  for (const auto& m : desc.materials) {
+    material_ids.emplace(m.material.name, static_cast<MaterialId>(s.materials.size()));
+    s.materials.push_back(m.material);
+  }
 
   for (const auto& o : desc.objects) {
     SceneObject obj;
     obj.name = o.name;
-    auto it = std::find_if(desc.materials.begin(), desc.materials.end(),
-                           [&](const MaterialDesc& m) { return m.material.name == o.material; });
-    if (it == desc.materials.end())
+    auto it = material_ids.find(o.material);
+    if (it == material_ids.end())
       throw InputError(o.material_where, "object '" + o.name + "': unknown material '" +
                                              o.material + "'");
-    obj.material = static_cast<MaterialId>(it - desc.materials.begin());
+    obj.material = it->second;
     obj.is_emitter = o.emission.has_value();
     obj.emission = o.emission.value_or(Rgb::Zero());
     obj.patch_size = o.patch_size.value_or(desc.patch_size);
