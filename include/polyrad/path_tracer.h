@@ -2,7 +2,7 @@
 // caster and camera as the radiosity solution, sharing none of its discretisation.
 //
 // Estimator, per path vertex x with outgoing direction wo (the rendering equation,
-// papers/glossy-radiosity.md, eq. 1, integrated over directions):
+// papers/glossy-radiosity.md, (R1), integrated over directions):
 //   - next-event estimation: one point y on an emitter patch, the patch chosen with probability
 //     proportional to luminance(emission) * area, y from Patch::sample; area density
 //     P(patch) / (area * density(y)), turned into solid angle by |x - y|^2 / cos(theta_y);

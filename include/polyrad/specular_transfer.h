@@ -3,28 +3,27 @@
 //
 // Estimator (papers/glossy-radiosity.md, eq. 8): for each facing pair (j -> i), S stratified
 // point pairs (y on P_j, x on P_i), each weighted by w = G(x, y) V(x, y); at x the lobe's own
-// sampler picks the outgoing direction with weight beta = lobe * cos / pdf (<= 1), and the ray
-// credits the patch k it meets:
+// sampler picks the outgoing direction with weight beta = lobe * cos / pdf, and the ray credits
+// the patch k it meets:
 //     R_jik = sum(w * beta * [ray hits k]) / sum(w)
-// Exact for mirrors (beta = 1), never above the lobe's albedo, so the transfer cannot create
-// energy.
+// beta is 1 for the mirror and at most 1 for GGX, so sum_k R_jik <= 1 (the lobe colour, at most
+// the albedo bound, multiplies later); a Phong sample's beta reaches (n + 2) / (n + 1), which
+// the balancing below caps.
 //
 // Reciprocity balancing (eq. 9): for one reflector i, the flux matrix M_jk = tau_ij R_jik is
-// symmetric for a reciprocal BRDF, so the flux that reaches k through i has two estimates: the
-// column sum of M (what the other sources' rays delivered to k) and k's own row sum
-// tau_ik A_k (A_k = sum_m R_kim, what k's rays found through i). They are combined by their
-// sampling variances, and the symmetrised estimate is scaled, M' = D (M + M^T)/2 D, to have the
-// combined sums as row (and so column) sums. In a closed scene k's own sum is exact, and a link
-// radiance S_{i->k} becomes exact in a uniform field instead of carrying the noise of the few
-// rays that reached k; where k's rays rarely find light, the other sources' estimate dominates.
-// Rows are finally capped at the physical bound sum_k R_jik <= 1, so energy conservation holds.
-// The seed's centre-point evaluation of rho is available as an option to compare.
+// symmetric for a reciprocal BRDF. Every source's rays are a multinomial sample (to each k, or
+// lost); the symmetric M of highest likelihood given all of them keeps each row within its
+// etendue (energy conservation) and, in a closed scene, makes every row and hence every column
+// carry what its own samples saw, so each link radiance S_{i->k} is exact in a uniform field
+// instead of carrying the noise of the few rays that reached k. The likelihood's dual is
+// solved by coordinate ascent. The seed's centre-point evaluation of rho is available as an
+// option to compare.
 //
 //   SpecularTransfer st = compute_specular_transfer(patches, materials, ff, caster, {});
 //   for (auto e = st.start[i]; e < st.start[i + 1]; ++e) use(st.from[e], st.to[e], st.fraction[e]);
 //
-// Cost: S rays + S shadow rays per facing pair into a non-diffuse patch; memory 12 bytes per
-// stored R_jik.
+// Cost: S shadow rays + S lobe rays per facing pair into a non-diffuse patch, plus the balancing
+// (a few hundred sweeps over each reflector's entries); memory 12 bytes per stored R_jik.
 #pragma once
 
 #include <vector>

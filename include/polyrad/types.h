@@ -6,7 +6,7 @@
 // - Right-handed world. A polygon's front side is the one from which its vertices run
 //   counter-clockwise; its unit normal points out of the front side. Patches are one-sided:
 //   they emit and reflect from the front only, and block light from both sides.
-// - Index names of the link transport (papers/glossy-radiosity.md, eq. 3):
+// - Index names of the link transport (papers/glossy-radiosity.md, eq. 7):
 //     j  the patch light comes from,  i  the patch that reflects it,  k  the patch it goes to.
 //   rho_jik, R_jik, W_jik follow that order. A link i->k is the ordered patch pair along which
 //   radiance L_{i->k} leaves i toward k.

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <map>
 
 #include "polyrad/progress.h"
@@ -21,26 +22,21 @@ constexpr int kBalanceIterations = 3000;
 constexpr double kBalanceTolerance = 1e-9;
 constexpr double kLostPrior = 1e-4;
 
-// What the samples of one pair (j -> i) measured: the fractions R_jik, and the total reflected
-// fraction A_j with its variance (delta-method variance of the ratio sum(w y) / sum(w)).
+// The first of 7, 11, 13, ... that shares no factor with n: s -> (s * stride + 3) mod n is then
+// a permutation of 0..n-1.
+int coprime_stride(int n) {
+  for (int stride : {7, 11, 13, 17, 19, 23, 29, 31})
+    if (std::gcd(stride, n) == 1) return stride;
+  return 1;
+}
+
+// What the samples of one pair (j -> i) measured: the fractions R_jik and the total reflected
+// fraction A_j = sum_k R_jik.
 struct SampledPair {
   PatchId from = 0;
-  double reflected = 0.0, reflected_variance = 0.0;
+  double reflected = 0.0;
   double effective_samples = 0.0;  // (sum w)^2 / sum w^2
   std::vector<std::pair<PatchId, double>> fraction;  // by k
-};
-
-// Running sums of one ratio estimator sum(w y) / sum(w).
-struct RatioSums {
-  double wy = 0.0, w2y = 0.0, w2y2 = 0.0;
-  void add(double w, double y) {
-    wy += w * y;
-    w2y += w * w * y;
-    w2y2 += w * w * y * y;
-  }
-  double variance(double ratio, double w1, double w2) const {
-    return std::max(0.0, (w2y2 - 2.0 * ratio * w2y + ratio * ratio * w2) / (w1 * w1));
-  }
 };
 
 // Eq. 8 for every pair (j -> i) of reflector i; hits on patches i does not see by its form
@@ -52,17 +48,19 @@ void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFac
   const Frame frame = Frame::from_normal(pi.normal);
   const int side = std::max(1, static_cast<int>(std::lround(std::sqrt(o.samples))));
   const int count = side * side;
+  const int stride = coprime_stride(count);
   std::map<PatchId, double> hits;  // k -> sum of w * beta
   for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f) {
     const PatchId j = ff.f.column[f];
     const Patch& pj = patches[j];
     Rng rng(o.seed, static_cast<std::uint64_t>(i), static_cast<std::uint64_t>(j));
     hits.clear();
-    RatioSums any;
+    double reflected = 0.0;  // sum of w * beta of rays that met a patch i sees
     double w1 = 0.0, w2 = 0.0, lost = 0.0;
     for (int s = 0; s < count; ++s) {
-      // x stratified on P_i; y on P_j stratified with the strata shuffled by a fixed odd stride.
-      int sx = s, sy = (s * 7 + 3) % count;
+      // x stratified on P_i; y on P_j stratified too, its strata visited in another order (a
+      // stride coprime with the count, so that every stratum is used exactly once).
+      int sx = s, sy = (s * stride + 3) % count;
       double dx, dy;
       Vec3 x = pi.sample(Vec2((sx % side + rng.uniform()) / side, (sx / side + rng.uniform()) / side), &dx);
       Vec3 y = pj.sample(Vec2((sy % side + rng.uniform()) / side, (sy / side + rng.uniform()) / side), &dy);
@@ -83,7 +81,7 @@ void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFac
       Hit h = caster.intersect_from(x, i, frame.to_world(ls.wi));
       if (h.valid() && h.front && h.patch != i && ff.at(i, h.patch) > 0.0) {
         hits[h.patch] += w * ls.weight;
-        any.add(w, ls.weight);
+        reflected += w * ls.weight;
       } else {
         if (h.valid() && h.front && h.patch != i) ++counters.dropped;
         lost += w * ls.weight;
@@ -95,8 +93,7 @@ void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFac
     }
     SampledPair p;
     p.from = j;
-    p.reflected = any.wy / w1;
-    p.reflected_variance = any.variance(p.reflected, w1, w2);
+    p.reflected = reflected / w1;
     p.effective_samples = w1 * w1 / w2;
     for (const auto& [k, sum] : hits) p.fraction.emplace_back(k, sum / w1);
     out.push_back(std::move(p));
