@@ -19,7 +19,8 @@ namespace polyrad {
 
 class Progress {
  public:
-  Progress(std::string stage, long long total);
+  // visible = false keeps this one quiet whatever set_enabled says.
+  Progress(std::string stage, long long total, bool visible = true);
   ~Progress();
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
@@ -39,6 +40,7 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_draw_;
   std::mutex draw_mutex_;
   bool finished_ = false;
+  bool visible_ = true;
 };
 
 }  // namespace polyrad

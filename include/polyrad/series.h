@@ -33,6 +33,12 @@ namespace polyrad {
 enum class SeriesOutput { kView, kSolution };
 enum class ValuePrecision { kFloat, kHalf };
 enum class SeriesBasis { kPatch, kObject };
+// How the K applications of T combine: the truncated power series, or the Chebyshev
+// semi-iteration, a different degree-K polynomial in T that converges like
+// (rho / (1 + sqrt(1 - rho^2)))^K instead of rho^K when T's spectrum is real and within
+// [-rho, rho] (as for diffuse scenes): far fewer terms as the albedo nears 1, and relighting
+// stays one product.
+enum class SeriesAcceleration { kNone, kChebyshev };
 const char* series_output_name(SeriesOutput o);
 const char* value_precision_name(ValuePrecision p);
 const char* series_basis_name(SeriesBasis b);
@@ -41,7 +47,7 @@ struct SeriesOptions {
   int order = -1;            // K; -1: the smallest K that meets `tolerance`
   double tolerance = 1e-3;   // relative error of the solution, flux-weighted 1-norm
   int max_order = 100000;
-  double drop = 0.0;         // drop entries below drop x the largest entry of their column
+  double drop = 0.0;         // drop each column's smallest entries, up to this share of its energy
   ValuePrecision precision = ValuePrecision::kFloat;
   SeriesOutput output = SeriesOutput::kView;
   // One column per emitting patch (the default), or one per emitting object (its patches
@@ -49,7 +55,10 @@ struct SeriesOptions {
   // for any relighting that sets whole objects.
   SeriesBasis basis = SeriesBasis::kPatch;
   int column_batch = 64;     // columns computed together (bounds the memory)
-  bool progress = true;
+  bool progress = true;      // a Progress display (when displays are enabled at all)
+  SeriesAcceleration acceleration = SeriesAcceleration::kNone;
+  // Chebyshev: the spectral radius rho; 0 estimates it from power steps (capped by a_max).
+  double chebyshev_radius = 0.0;
 };
 
 // What the precompute measured; written into reports and the .prt header.
@@ -59,7 +68,11 @@ struct SeriesReport {
   double apriori_bound = 0.0;     // a^(K+1) / (1 - a): bound of the relative error
   double aposteriori_estimate = 0.0;  // ||T^K S|| q / (1 - q) / ||P_K S||, worst channel
   double spectral_radius = 0.0;   // q: the decay of the term norms (extrapolated), worst channel
-  std::vector<double> term_norms; // ||T^n S|| / ||S|| for n = 0..K (all columns together)
+  std::vector<double> term_norms; // ||T^n S|| / ||S|| for n = 0..K (all columns together);
+                                  // with Chebyshev, the residual ||S + T x_n - x_n|| / ||S||
+  SeriesAcceleration acceleration = SeriesAcceleration::kNone;
+  double chebyshev_radius = 0.0;  // rho used
+  double residual_bound = 0.0;    // ||S + T x_K - x_K|| / (1 - a_max) / ||x_K||, worst channel
   double dropped_energy = 0.0;    // for the scene's emission: sum of dropped |Q e| (see below)
   double dropped_relative = 0.0;  // ... over the total
   long long nnz = 0;

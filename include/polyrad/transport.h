@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "polyrad/brdf.h"
@@ -90,17 +91,24 @@ class TransportOperator {
   // out = T in, for one field or a block of fields. in and out must not alias.
   void apply(const Field& in, Field& out) const;
   void apply(const FieldBlock& in, FieldBlock& out) const;
+  // out = T_c in for one colour channel c (the operator of that channel alone).
+  void apply_channel(const double* in, double* out, int channel) const;
   // One Gauss-Seidel sweep in place: u[r] = e[r] + (T u)[r], rows in order.
   void gauss_seidel_sweep(const Field& e, Field& u) const;
 
-  // The flux-weighted 1-norm of a field, summed over channels (section 5).
+  // The flux-weighted 1-norm of a field, summed over channels (section 5), and per channel.
   double flux_norm(const Field& f) const;
+  Eigen::Array3d flux_norm_channels(const Field& f) const;
   // Memory of the stored operator, in bytes, by part.
   std::size_t bytes() const;
   std::int64_t nnz_diffuse() const { return nnz_diffuse_; }
   std::int64_t nnz_specular() const { return weights_.nnz() - nnz_diffuse_; }
   // The largest albedo bound over the materials that reflect (a_max of section 5).
   double max_albedo() const { return max_albedo_; }
+  // The material with that albedo bound: the likely culprit when the iteration diverges.
+  const std::string& brightest_material() const { return brightest_material_; }
+  // A sentence naming that material when its bound exceeds 1 (empty otherwise), for messages.
+  std::string divergence_hint() const;
   bool on_the_fly() const { return on_the_fly_ != nullptr; }
 
  private:
@@ -118,6 +126,7 @@ class TransportOperator {
   std::vector<Rgb> patch_emission_;
   std::int64_t nnz_diffuse_ = 0;
   double max_albedo_ = 0.0;
+  std::string brightest_material_;
 };
 
 // Builds T from the form factors and, if given, the specular transfer (which also decides the

@@ -21,7 +21,10 @@ int render_iterative(const RenderFlags& f) {
   auto sys = build_system(std::move(scene), f.system.pipeline());
 
   SolveOptions so;
-  so.method = f.solver == "jacobi" ? SolveMethod::kJacobi : SolveMethod::kGaussSeidel;
+  so.method = f.solver == "jacobi"      ? SolveMethod::kJacobi
+              : f.solver == "gmres"     ? SolveMethod::kGmres
+              : f.solver == "chebyshev" ? SolveMethod::kChebyshev
+                                        : SolveMethod::kGaussSeidel;
   so.tolerance = f.tolerance;
   so.max_iterations = f.max_iterations;
   SolveResult result = solve(sys->transport, sys->transport.emission(), so);
@@ -89,7 +92,7 @@ void add_render_command(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"iterative", "series", "pathtrace"}))
       ->capture_default_str();
   cmd->add_option("--solver", flags->solver, "Iterative solver")
-      ->check(CLI::IsMember({"gauss-seidel", "jacobi"}))
+      ->check(CLI::IsMember({"gauss-seidel", "jacobi", "gmres", "chebyshev"}))
       ->capture_default_str();
   cmd->add_option("--tolerance", flags->tolerance, "Relative residual to stop at")
       ->check(CLI::Range(1e-14, 1.0))
@@ -99,6 +102,10 @@ void add_render_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--order", flags->order, "Series: order K (default: chosen from --tolerance)")
       ->check(CLI::Range(0, 100000));
+  cmd->add_option("--acceleration", flags->acceleration,
+                  "Series: plain power series, or the Chebyshev polynomial (diffuse scenes)")
+      ->check(CLI::IsMember({"none", "chebyshev"}))
+      ->capture_default_str();
   cmd->add_option("--spp", flags->spp, "Path tracer: samples per pixel")
       ->check(CLI::Range(1, 1 << 24))
       ->capture_default_str();

@@ -16,6 +16,7 @@ struct RenderFlags {
   int max_iterations = 10000;
   // series
   int order = -1;  // -1: chosen from --tolerance
+  std::string acceleration = "none";
   // path tracer
   int spp = 64;
   std::uint64_t seed = 1;

@@ -32,6 +32,8 @@ void write_series_report(JsonWriter& w, const SeriesOperator& q) {
   w.value("aposteriori_estimate", r.aposteriori_estimate);
   w.value("last_term_norm", r.term_norms.empty() ? 0.0 : r.term_norms.back());
   w.value("spectral_radius_estimate", r.spectral_radius);
+  w.value("acceleration", r.acceleration == SeriesAcceleration::kChebyshev ? "chebyshev" : "none");
+  w.value("residual_bound", r.residual_bound);
   w.begin_array("term_norms");
   for (double x : r.term_norms) w.element(x);
   w.end_array();
@@ -57,8 +59,10 @@ std::pair<std::string, Rgb> parse_emission(const std::string& text) {
 }
 
 SeriesOptions series_options(int order, double tolerance, double drop, const std::string& precision,
-                             const std::string& output, const std::string& basis) {
+                             const std::string& output, const std::string& basis,
+                             const std::string& acceleration) {
   SeriesOptions o;
+  if (acceleration == "chebyshev") o.acceleration = SeriesAcceleration::kChebyshev;
   o.order = order;
   o.tolerance = tolerance;
   o.drop = drop;
@@ -89,7 +93,8 @@ Image product_image(const SeriesOperator& q, const std::vector<float>& out, cons
 // ---- precompute ------------------------------------------------------------------------------
 
 struct PrecomputeFlags {
-  std::string scene, output, report, output_kind = "view", precision = "float", basis = "patch";
+  std::string scene, output, report, output_kind = "view", precision = "float", basis = "patch",
+      acceleration = "none";
   int order = -1;
   double tolerance = 1e-3, drop = 0.0;
   SystemFlags system;
@@ -100,7 +105,8 @@ int run_precompute(const PrecomputeFlags& f) {
   if (!f.report.empty()) check_output_path(f.report, "report");
   auto t0 = std::chrono::steady_clock::now();
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
-  SeriesOptions o = series_options(f.order, f.tolerance, f.drop, f.precision, f.output_kind, f.basis);
+  SeriesOptions o = series_options(f.order, f.tolerance, f.drop, f.precision, f.output_kind, f.basis,
+                                   f.acceleration);
   std::unique_ptr<Gather> gather;
   if (o.output == SeriesOutput::kView)
     gather = std::make_unique<Gather>(build_gather(sys->scene.camera, sys->patches, sys->scene.materials,
@@ -126,9 +132,12 @@ int run_precompute(const PrecomputeFlags& f) {
     w.end_object();
     write_file_atomic(f.report, w.str());
   }
-  std::fprintf(stderr, "polyrad: %s operator, order %d (a-priori bound %.2e, a-posteriori %.2e), %lld x %lld, %lld non-zeros, %.1f MB; wrote %s\n",
-               series_output_name(q.output), q.report.order, q.report.apriori_bound,
-               q.report.aposteriori_estimate, static_cast<long long>(q.rows()),
+  const bool cheb = q.report.acceleration == SeriesAcceleration::kChebyshev;
+  std::fprintf(stderr, "polyrad: %s operator, %s of order %d (%s %.2e), %lld x %lld, %lld non-zeros, %.1f MB; wrote %s\n",
+               series_output_name(q.output), cheb ? "Chebyshev polynomial" : "power series",
+               q.report.order, cheb ? "residual bound" : "a-posteriori estimate",
+               cheb ? q.report.residual_bound : q.report.aposteriori_estimate,
+               static_cast<long long>(q.rows()),
                static_cast<long long>(q.cols()), static_cast<long long>(q.nnz()), q.bytes() / 1e6,
                f.output.c_str());
   return kExitOk;
@@ -219,9 +228,7 @@ int render_series(const RenderFlags& f) {
   go.specular = !f.system.classic;
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
                                sys->transport, go);
-  SeriesOptions o;
-  o.order = f.order;
-  o.tolerance = f.tolerance;
+  SeriesOptions o = series_options(f.order, f.tolerance, 0.0, "float", "view", "patch", f.acceleration);
   SeriesOperator q = precompute_series(sys->transport, sys->patches, sys->scene, &gather, o);
   std::vector<float> e = q.column_emission();
   std::vector<float> out(3 * static_cast<std::size_t>(q.rows()));
@@ -262,7 +269,7 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1e-14, 1.0))
       ->excludes(order)
       ->capture_default_str();
-  cmd->add_option("--drop", f->drop, "Drop entries below this fraction of their column's largest")
+  cmd->add_option("--drop", f->drop, "Drop each column's smallest entries, up to this share of its energy")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--precision", f->precision, "Stored value precision")
@@ -273,6 +280,11 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--basis", f->basis, "Columns: one per emitting patch, or one per emitting object")
       ->check(CLI::IsMember({"patch", "object"}))
+      ->capture_default_str();
+  cmd->add_option("--acceleration", f->acceleration,
+                  "Plain power series, or the Chebyshev polynomial (fewer terms near albedo 1; "
+                  "needs a real spectrum, as diffuse scenes have)")
+      ->check(CLI::IsMember({"none", "chebyshev"}))
       ->capture_default_str();
   cmd->add_option("--report", f->report, "Write a JSON report here");
   f->system.add(*cmd);

@@ -8,6 +8,7 @@
 
 #include "polyrad/half.h"
 #include "polyrad/progress.h"
+#include "polyrad/solver.h"
 
 namespace polyrad {
 
@@ -35,26 +36,14 @@ struct Terms {
   std::vector<double> norms;  // relative to ||S||
   double spectral_radius = 0.0;
   double aposteriori = 0.0;
+  double residual_bound = INFINITY;
 };
 
-// q, the spectral radius the term norms decay by. The ratio of successive norms of a
-// non-negative operator's powers rises toward it, so the last ratio underestimates it (by 10
-// percent at K = 6 on the mirror cube): the ratios are extrapolated by Aitken's delta-squared,
-// and the result capped by a_max, which bounds the spectral radius (section 5).
+
+// q, the decay of the term norms (solver.h, extrapolated_decay), capped by a_max, which bounds
+// the spectral radius (section 5).
 double ratio_estimate(const std::vector<double>& norms, double a_max) {
-  const size_t n = norms.size();
-  auto ratio = [&](size_t k) { return norms[k - 1] > 0.0 ? norms[k] / norms[k - 1] : 0.0; };
-  if (n < 2) return 0.0;
-  double r2 = ratio(n - 1);
-  double q = r2;
-  if (n >= 4) {
-    double r1 = ratio(n - 2), r0 = ratio(n - 3);
-    double curvature = r2 - 2.0 * r1 + r0;
-    double aitken = curvature != 0.0 ? r2 - (r2 - r1) * (r2 - r1) / curvature : r2;
-    // A rising sequence extrapolates upward; otherwise keep the largest recent ratio.
-    q = std::max({r0, r1, r2});
-    if (r2 > r1 && aitken > q && std::isfinite(aitken)) q = aitken;
-  }
+  double q = extrapolated_decay(norms);
   return a_max > 0.0 ? std::min(q, a_max) : q;
 }
 
@@ -65,11 +54,7 @@ double ratio_estimate(const std::vector<double>& norms, double a_max) {
 // emission colour meets the tolerance.
 Terms choose_order(const TransportOperator& t, const Field& s, const SeriesOptions& o) {
   const double a = t.max_albedo();
-  auto channel_norms = [&](const Field& f) {
-    Eigen::Array3d n = Eigen::Array3d::Zero();
-    for (Eigen::Index r = 0; r < f.rows(); ++r) n += t.flux_weight()[r] * f.row(r).array().abs().transpose();
-    return n;
-  };
+  auto channel_norms = [&](const Field& f) { return t.flux_norm_channels(f); };
   const Eigen::Array3d s_norm = channel_norms(s);
   Terms terms;
   terms.norms.push_back(1.0);
@@ -95,7 +80,7 @@ Terms choose_order(const TransportOperator& t, const Field& s, const SeriesOptio
         std::ostringstream msg;
         msg << "the power series diverges: its terms grew by " << total / terms.norms[m - 2]
             << " per order over the last " << kGrowthTerms << " (spectral radius above 1)";
-        if (a > 1.0) msg << "; the largest material albedo bound is " << a << " > 1";
+        if (a > 1.0) msg << "; " << t.divergence_hint();
         throw NumericalError(msg.str());
       }
     }
@@ -117,6 +102,41 @@ Terms choose_order(const TransportOperator& t, const Field& s, const SeriesOptio
     throw NumericalError("the power series did not reach the tolerance " +
                          std::to_string(o.tolerance) + " within " + std::to_string(o.max_order) +
                          " terms");
+  return terms;
+}
+
+// Chebyshev: rho from a few power steps unless given, then the order from the residual, a
+// rigorous bound in the flux norm: ||x - x_K|| <= ||e + T x_K - x_K|| / (1 - a_max).
+Terms choose_chebyshev_order(const TransportOperator& t, const Field& s, const SeriesOptions& o,
+                             double* rho) {
+  const double a = t.max_albedo();
+  if (!(a < 1.0)) throw NumericalError("Chebyshev acceleration needs every albedo below 1; " + t.divergence_hint());
+  if (*rho <= 0.0) *rho = estimate_spectral_radius(t, s);
+  const Eigen::Array3d s_norm = t.flux_norm_channels(s);
+  Terms terms;
+  terms.spectral_radius = *rho;
+  terms.norms.push_back(1.0);
+  ChebyshevIteration<Field> cheb(t, s, *rho);
+  const int limit = o.order >= 0 ? o.order + 1 : o.max_order;
+  for (int n = 0; n < limit; ++n) {
+    Eigen::Array3d x_norm = t.flux_norm_channels(cheb.x());
+    const Field& residual = cheb.step();  // residual of x_n
+    Eigen::Array3d r_norm = t.flux_norm_channels(residual);
+    double bound = 0.0;
+    for (int c = 0; c < 3; ++c)
+      if (s_norm[c] > 0.0) bound = std::max(bound, r_norm[c] / (1.0 - a) / x_norm[c]);
+    if (!std::isfinite(bound)) throw NumericalError("the Chebyshev polynomial produced non-finite terms");
+    if (n > 0) terms.norms.push_back(r_norm.sum() / s_norm.sum());
+    terms.order = n;
+    terms.residual_bound = bound;
+    if (o.order < 0 && bound <= o.tolerance) return terms;
+    if (n > 2 * kGrowthTerms && terms.norms.back() > terms.norms.front())
+      throw NumericalError("the Chebyshev polynomial diverges: its residual grows (the spectral radius " +
+                           std::to_string(*rho) + " it assumed is too small, or the spectrum is not real)");
+  }
+  if (o.order < 0)
+    throw NumericalError("the Chebyshev polynomial did not reach the tolerance within " +
+                         std::to_string(o.max_order) + " terms");
   return terms;
 }
 
@@ -171,7 +191,9 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
   Field s = Field::Zero(t.size(), 3);
   for (const auto& list : lit)
     for (PatchId p : list) s.row(p).setOnes();
-  Terms terms = choose_order(t, s, o);
+  const bool chebyshev = o.acceleration == SeriesAcceleration::kChebyshev;
+  double rho = o.chebyshev_radius;
+  Terms terms = chebyshev ? choose_chebyshev_order(t, s, o, &rho) : choose_order(t, s, o);
   const int order = terms.order;
 
   const std::int64_t rows = view ? static_cast<std::int64_t>(gather->width) * gather->height : t.size();
@@ -180,21 +202,30 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
   std::vector<std::vector<float>> batch_value;
   double dropped = 0.0, total = 0.0;
   const int batch = std::max(1, o.column_batch);
-  Progress progress("series precompute", (cols + batch - 1) / batch * (order + 1));
+  Progress progress("series precompute", (cols + batch - 1) / batch * (order + 1), o.progress);
 
   for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
     const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
-    // P_K S for these columns by the running sum, u_K = sum_{n<=K} T^n S (eq. 10).
     FieldBlock term = FieldBlock::Zero(t.size(), 3 * width), next, acc;
     for (int c = 0; c < width; ++c)
       for (PatchId p : lit[c0 + c]) term.block(p, 3 * c, 1, 3).setOnes();
-    acc = term;
     progress.advance();
-    for (int n = 1; n <= order; ++n) {
-      t.apply(term, next);
-      term.swap(next);
-      acc += term;
-      progress.advance();
+    if (chebyshev) {
+      ChebyshevIteration<FieldBlock> cheb(t, term, rho);
+      for (int n = 1; n <= order; ++n) {
+        cheb.step();
+        progress.advance();
+      }
+      acc = cheb.x();
+    } else {
+      // P_K S for these columns by the running sum, u_K = sum_{n<=K} T^n S (eq. 10).
+      acc = term;
+      for (int n = 1; n <= order; ++n) {
+        t.apply(term, next);
+        term.swap(next);
+        acc += term;
+        progress.advance();
+      }
     }
     // The rows: the unknowns themselves, or the pixels through the gather.
     FieldBlock out;
@@ -211,11 +242,33 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
     } else {
       out.swap(acc);
     }
-    // Drop small entries; measure what they would have added for the scene's emission.
-    std::vector<double> column_max(width, 0.0);
-    for (std::int64_t r = 0; r < rows; ++r)
-      for (int c = 0; c < width; ++c)
-        column_max[c] = std::max(column_max[c], out.block(r, 3 * c, 1, 3).maxCoeff());
+    // Drop the smallest entries of each column while their share of the column's energy (the
+    // flux-weighted sum over channels) stays within `drop`: the image or solution loses at most
+    // that fraction of each light's contribution, whatever the light's colour. (A threshold
+    // relative to the column's largest entry would not: in view mode that entry is a pixel
+    // seeing the lamp, and most of the indirect light falls below it.) Measure what the dropped
+    // entries would have added for the scene's emission.
+    auto energy = [&](std::int64_t r, int c) {
+      const double w = view ? 1.0 : t.flux_weight()[r];
+      return w * (out(r, 3 * c) + out(r, 3 * c + 1) + out(r, 3 * c + 2));
+    };
+    std::vector<double> threshold(width, 0.0);
+    if (o.drop > 0.0) {
+      std::vector<double> e(rows);
+      for (int c = 0; c < width; ++c) {
+        double column_total = 0.0;
+        for (std::int64_t r = 0; r < rows; ++r) column_total += (e[r] = energy(r, c));
+        std::sort(e.begin(), e.end());
+        double cumulative = 0.0;
+        for (std::int64_t r = 0; r < rows; ++r) {
+          if (cumulative + e[r] > o.drop * column_total) {
+            threshold[c] = e[r];  // entries below this one are dropped
+            break;
+          }
+          cumulative += e[r];
+        }
+      }
+    }
     std::vector<std::int64_t> bs{0};
     std::vector<std::uint32_t> bc;
     std::vector<float> bv;
@@ -226,9 +279,8 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
         double v[3] = {out(r, 3 * c), out(r, 3 * c + 1), out(r, 3 * c + 2)};
         double mass = w * (v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
         total += mass;
-        double largest = std::max({v[0], v[1], v[2]});
-        if (largest <= 0.0) continue;
-        if (largest < o.drop * column_max[c]) {
+        if (std::max({v[0], v[1], v[2]}) <= 0.0) continue;
+        if (energy(r, c) < threshold[c]) {
           dropped += mass;
           continue;
         }
@@ -276,6 +328,9 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
   rep.aposteriori_estimate = terms.aposteriori;
   rep.spectral_radius = terms.spectral_radius;
   rep.term_norms = terms.norms;
+  rep.acceleration = o.acceleration;
+  rep.chebyshev_radius = chebyshev ? rho : 0.0;
+  rep.residual_bound = terms.residual_bound;
   rep.dropped_energy = dropped;
   rep.dropped_relative = total > 0.0 ? dropped / total : 0.0;
   rep.nnz = q.nnz();
@@ -328,16 +383,17 @@ void SeriesOperator::apply(const float* e, float* out) const {
     const float* v = static_cast<const float*>(values_);
 #pragma omp parallel for schedule(static, 1024)
     for (std::int64_t r = 0; r < rows; ++r) {
-      float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+      // Sums in double (METHOD.md section 9): free here, the product waits on memory.
+      double a0 = 0.0, a1 = 0.0, a2 = 0.0;
       for (auto k = start[r]; k < start[r + 1]; ++k) {
         const float* x = e + 3 * static_cast<std::size_t>(column[k]);
-        a0 += v[3 * k] * x[0];
-        a1 += v[3 * k + 1] * x[1];
-        a2 += v[3 * k + 2] * x[2];
+        a0 += static_cast<double>(v[3 * k]) * x[0];
+        a1 += static_cast<double>(v[3 * k + 1]) * x[1];
+        a2 += static_cast<double>(v[3 * k + 2]) * x[2];
       }
-      out[3 * r] = a0;
-      out[3 * r + 1] = a1;
-      out[3 * r + 2] = a2;
+      out[3 * r] = static_cast<float>(a0);
+      out[3 * r + 1] = static_cast<float>(a1);
+      out[3 * r + 2] = static_cast<float>(a2);
     }
     return;
   }
@@ -345,16 +401,16 @@ void SeriesOperator::apply(const float* e, float* out) const {
   const float* table = half_table();
 #pragma omp parallel for schedule(static, 1024)
   for (std::int64_t r = 0; r < rows; ++r) {
-    float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
     for (auto k = start[r]; k < start[r + 1]; ++k) {
       const float* x = e + 3 * static_cast<std::size_t>(column[k]);
-      a0 += table[v[3 * k]] * x[0];
-      a1 += table[v[3 * k + 1]] * x[1];
-      a2 += table[v[3 * k + 2]] * x[2];
+      a0 += static_cast<double>(table[v[3 * k]]) * x[0];
+      a1 += static_cast<double>(table[v[3 * k + 1]]) * x[1];
+      a2 += static_cast<double>(table[v[3 * k + 2]]) * x[2];
     }
-    out[3 * r] = a0;
-    out[3 * r + 1] = a1;
-    out[3 * r + 2] = a2;
+    out[3 * r] = static_cast<float>(a0);
+    out[3 * r + 1] = static_cast<float>(a1);
+    out[3 * r + 2] = static_cast<float>(a2);
   }
 }
 

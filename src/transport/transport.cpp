@@ -103,7 +103,10 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
   for (const auto& p : patches.patches) t.patch_emission_.push_back(p.emission);
   for (const auto& m : materials) {
     bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
-    if (reflects) t.max_albedo_ = std::max(t.max_albedo_, m.albedo_bound().maxCoeff());
+    if (reflects && m.albedo_bound().maxCoeff() > t.max_albedo_) {
+      t.max_albedo_ = m.albedo_bound().maxCoeff();
+      t.brightest_material_ = m.name;
+    }
   }
 
   std::map<std::pair<PatchId, PatchId>, LinkId> active;
@@ -168,6 +171,12 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     t.layout_.flux_weight.push_back(kPi * ff.area[link.from] * ff.at(link.from, link.to));
   }
   return t;
+}
+
+std::string TransportOperator::divergence_hint() const {
+  if (max_albedo_ <= 1.0) return {};
+  return "material '" + brightest_material_ + "' has diffuse + specular = " +
+         std::to_string(max_albedo_) + " > 1: it reflects more light than it receives";
 }
 
 Field TransportOperator::emission() const { return emission(patch_emission_); }
@@ -267,6 +276,24 @@ void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
   if (on_the_fly_) recompute_link_rows(in.data(), out.data(), width, false, nullptr);
 }
 
+void TransportOperator::apply_channel(const double* in, double* out, int channel) const {
+  if (on_the_fly_) {  // the recomputed rows work on whole fields
+    Field a = Field::Zero(size(), 3), b;
+    for (Eigen::Index r = 0; r < size(); ++r) a(r, channel) = in[r];
+    apply(a, b);
+    for (Eigen::Index r = 0; r < size(); ++r) out[r] = b(r, channel);
+    return;
+  }
+  const Eigen::Index rows = size();
+#pragma omp parallel for schedule(dynamic, 256)
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    double a = 0.0;
+    for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k)
+      a += static_cast<double>(weights_.value[k]) * in[weights_.column[k]];
+    out[r] = row_colour_[r][channel] * a;
+  }
+}
+
 void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
   // Stored rows (all of them, or only the diffuse ones when the link rows are recomputed).
   const Eigen::Index rows = on_the_fly_ ? layout_.num_patches : size();
@@ -285,6 +312,13 @@ void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
     u(r, 2) = e(r, 2) + c[2] * a2;
   }
   if (on_the_fly_) recompute_link_rows(nullptr, u.data(), 3, true, &e);
+}
+
+Eigen::Array3d TransportOperator::flux_norm_channels(const Field& f) const {
+  Eigen::Array3d n = Eigen::Array3d::Zero();
+  for (Eigen::Index r = 0; r < f.rows(); ++r)
+    n += layout_.flux_weight[r] * f.row(r).array().abs().transpose();
+  return n;
 }
 
 double TransportOperator::flux_norm(const Field& f) const {

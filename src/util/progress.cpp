@@ -21,15 +21,15 @@ bool Progress::enabled() {
   return e == 1;
 }
 
-Progress::Progress(std::string stage, long long total)
+Progress::Progress(std::string stage, long long total, bool visible)
     : stage_(std::move(stage)), total_(total), start_(std::chrono::steady_clock::now()),
-      last_draw_(start_) {}
+      last_draw_(start_), visible_(visible) {}
 
 Progress::~Progress() { finish(); }
 
 void Progress::advance(long long n) {
   long long done = done_.fetch_add(n, std::memory_order_relaxed) + n;
-  if (!enabled()) return;
+  if (!visible_ || !enabled()) return;
   auto now = std::chrono::steady_clock::now();
   if (now - last_draw_ < std::chrono::milliseconds(200)) return;
   std::unique_lock<std::mutex> lock(draw_mutex_, std::try_to_lock);
@@ -56,7 +56,7 @@ void Progress::finish() {
   std::lock_guard<std::mutex> lock(draw_mutex_);
   if (finished_) return;
   finished_ = true;
-  if (!enabled()) return;
+  if (!visible_ || !enabled()) return;
   draw(total_);
   std::fputc('\n', stderr);
 }
