@@ -18,15 +18,20 @@ struct CliRun {
   std::string err;
 };
 
-CliRun run(const std::string& args) {
+// Runs a shell command line; stderr captured (in a directory of its own).
+CliRun run_shell(const std::string& line) {
   auto dir = test::temp_dir();
   std::string err_file = (dir / "stderr.txt").string();
-  std::string cmd = std::string(POLYRAD_CLI) + " --quiet " + args + " 2>" + err_file + " >/dev/null";
+  std::string cmd = "sh -c '" + line + "' 2>" + err_file + " >/dev/null";
   int status = std::system(cmd.c_str());
   std::ifstream in(err_file);
   std::stringstream ss;
   ss << in.rdbuf();
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+}
+
+CliRun run(const std::string& args) {
+  return run_shell(std::string(POLYRAD_CLI) + " --quiet " + args);
 }
 
 size_t lines(const std::string& s) {
@@ -161,6 +166,40 @@ TEST(Cli, RenderBySeriesMatchesIterative) {
     diff += std::abs(x.rgb[k] - y.rgb[k]);
   }
   EXPECT_LT(diff / sum, 2e-4);  // the image is a positive map of u: L1 error within the tolerance
+}
+
+}  // namespace
+}  // namespace polyrad
+
+namespace polyrad {
+namespace {
+
+std::vector<std::string> files_in(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  return names;
+}
+
+TEST(Cli, InterruptedPrecomputeLeavesNothing) {
+  auto dir = test::temp_dir();
+  std::string prt = (dir / "big.prt").string();
+  // A precompute of several seconds (fine patches), stopped by SIGTERM after one.
+  std::string cmd = std::string(POLYRAD_CLI) + " --quiet precompute " + test::scene_path("cornell-mirror-cube") +
+                    " --patch-size 15 -o " + prt + " 2>/dev/null & pid=$!; sleep 1; kill -TERM $pid; wait $pid";
+  int status = std::system(("sh -c '" + cmd + "'").c_str());
+  EXPECT_NE(status, 0);
+  EXPECT_TRUE(files_in(dir).empty()) << files_in(dir).size() << " files left, first " << files_in(dir)[0];
+}
+
+TEST(Cli, FullDiskIsReportedAndLeavesNothing) {
+  auto dir = test::temp_dir();
+  std::string prt = (dir / "a.prt").string();
+  // A file size limit of 64 KiB stands in for a full disk: the operator is megabytes.
+  CliRun r = run_shell("ulimit -f 128; " + std::string(POLYRAD_CLI) + " --quiet precompute " +
+                       test::scene_path("cornell-box") + " -o " + prt);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
+  EXPECT_TRUE(files_in(dir).empty() || files_in(dir) == std::vector<std::string>{"stderr.txt"});
 }
 
 }  // namespace

@@ -64,6 +64,10 @@ struct PatchSet {
 
 PatchSet mesh_scene(const Scene& scene);
 
+// How many patches mesh_scene would make, without making them (for memory estimates: a tiny
+// patch_size must be refused before the mesher tries to allocate billions of patches).
+double count_patches(const Scene& scene);
+
 // A planar convex polygon cut into sub-polygons no longer than max_edge (exposed for tests).
 std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, double max_edge);
 

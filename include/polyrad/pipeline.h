@@ -32,7 +32,21 @@ struct PipelineOptions {
   bool specular_on_the_fly = false;
   // Overrides every patch_size of the scene when > 0.
   double patch_size = 0.0;
+  // Refuse (InputError) a scene whose estimated memory exceeds this many bytes; 0: 80 percent
+  // of the machine's physical memory.
+  double max_memory_bytes = 0.0;
 };
+
+// An upper estimate of the memory build_system will need, by part, before anything is built:
+// form factors as if half of all patch pairs faced each other, the specular transfer as if
+// every reflector's samples spread over distinct targets, and the solver's fields.
+struct MemoryEstimate {
+  double patches = 0.0;
+  double form_factors = 0.0, specular = 0.0, fields = 0.0;
+  double total() const { return form_factors + specular + fields; }
+};
+MemoryEstimate estimate_memory(const Scene& scene, const PipelineOptions& options);
+double physical_memory_bytes();
 
 struct StageTime {
   std::string name;

@@ -120,6 +120,9 @@ void SystemFlags::add(CLI::App& app) {
                "Classic radiosity: every material reduced to its diffuse part");
   app.add_flag("--centre-point", centre_point,
                "Specular transfer by the seed's centre-point rho (for comparison only)");
+  app.add_option("--max-memory", max_memory_gib,
+                 "Refuse scenes estimated to need more memory than this, in GiB (default: 80% of RAM)")
+      ->check(CLI::PositiveNumber);
   app.add_flag("--specular-on-the-fly", on_the_fly,
                "Recompute the specular transfer at every sweep instead of storing it");
   app.add_flag("--allow-unsafe-albedo", unsafe_albedo,
@@ -139,6 +142,7 @@ PipelineOptions SystemFlags::pipeline() const {
   o.specular_transport = !classic;
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
   o.specular_on_the_fly = on_the_fly;
+  o.max_memory_bytes = max_memory_gib * (1ull << 30);
   return o;
 }
 

@@ -40,6 +40,7 @@ struct SystemFlags {
   bool centre_point = false;
   bool on_the_fly = false;
   bool unsafe_albedo = false;
+  double max_memory_gib = 0.0;
   void add(CLI::App& app);
   PipelineOptions pipeline() const;
   SceneOptions scene_options() const;
@@ -50,5 +51,6 @@ void add_demo_command(CLI::App& app, int& exit_code);
 void add_compare_command(CLI::App& app, int& exit_code);
 void add_precompute_command(CLI::App& app, int& exit_code);
 void add_relight_command(CLI::App& app, int& exit_code);
+void add_convergence_command(CLI::App& app, int& exit_code);
 
 }  // namespace polyrad::cli

@@ -25,6 +25,9 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGHUP, on_signal);
+  // A file size limit (or a full disk) must surface as a write error that is reported, not as a
+  // signal that kills the process with a half-written temporary.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   CLI::App app{"polyrad: glossy radiosity with a precomputed transport polynomial"};
   app.require_subcommand(1);
@@ -42,6 +45,7 @@ int main(int argc, char** argv) {
   add_compare_command(app, exit_code);
   add_precompute_command(app, exit_code);
   add_relight_command(app, exit_code);
+  add_convergence_command(app, exit_code);
 
   try {
     app.parse(argc, argv);

@@ -127,6 +127,27 @@ std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, dou
   return out;
 }
 
+double count_patches(const Scene& scene) {
+  // Counted in double: the count of an absurd patch size must not overflow before it is refused.
+  auto cells_d = [](double length, double max_edge) { return std::max(1.0, std::ceil(length / max_edge - 1e-9)); };
+  double total = 0.0;
+  for (const auto& o : scene.objects)
+    for (const auto& face : merged_faces(o.faces)) {
+      if (face.size() == 4) {
+        total += cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()), o.patch_size) *
+                 cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
+        continue;
+      }
+      for (size_t k = 1; k + 1 < face.size(); ++k) {
+        double longest = std::max({(face[k] - face[0]).norm(), (face[k + 1] - face[k]).norm(),
+                                   (face[0] - face[k + 1]).norm()});
+        double n = cells_d(longest, o.patch_size);
+        total += n * n;
+      }
+    }
+  return total;
+}
+
 Vec3 Patch::point(double u, double v) const {
   if (is_triangle()) return (1 - u - v) * corner[0] + u * corner[1] + v * corner[2];
   return (1 - u) * (1 - v) * corner[0] + u * (1 - v) * corner[1] + u * v * corner[2] +

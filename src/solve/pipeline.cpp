@@ -1,6 +1,9 @@
 #include "polyrad/pipeline.h"
 
 #include <sys/resource.h>
+#include <unistd.h>
+
+#include <cstdio>
 
 #include <chrono>
 
@@ -29,7 +32,50 @@ double RadiositySystem::seconds(const std::string& stage) const {
   return 0.0;
 }
 
+double physical_memory_bytes() {
+  long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+MemoryEstimate estimate_memory(const Scene& scene, const PipelineOptions& options) {
+  Scene s = scene;
+  if (options.patch_size > 0.0)
+    for (auto& o : s.objects) o.patch_size = options.patch_size;
+  MemoryEstimate m;
+  m.patches = count_patches(s);
+  // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
+  m.form_factors = 0.5 * m.patches * m.patches * (8.0 * 2 + 16.0);
+  if (options.specular_transport) {
+    double reflecting = 0.0;
+    for (const auto& o : s.objects)
+      if (s.materials[o.material].has_lobe()) {
+        Scene one;
+        one.objects = {o};
+        one.materials = s.materials;
+        reflecting += count_patches(one);
+      }
+    // Each (j -> i) pair: up to `samples` targets, 12 bytes stored, twice while balancing.
+    m.specular = reflecting * 0.5 * m.patches * std::min(options.specular.samples, 64) * 12.0 * 2.0;
+  }
+  // Unknowns (patches + links) times 3 doubles, a few fields.
+  m.fields = (m.patches + m.specular / 24.0) * 3 * 8 * 6;
+  return m;
+}
+
 std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions& options) {
+  const double budget = options.max_memory_bytes > 0.0 ? options.max_memory_bytes
+                                                       : 0.8 * physical_memory_bytes();
+  MemoryEstimate need = estimate_memory(scene, options);
+  if (budget > 0.0 && need.total() > budget) {
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "the scene needs an estimated %.3g GiB (%.3g patches: form factors %.3g GiB, "
+                  "specular transfer %.3g GiB), more than the budget of %.3g GiB; use a larger "
+                  "patch_size or raise --max-memory",
+                  need.total() / (1 << 30), need.patches, need.form_factors / (1 << 30),
+                  need.specular / (1 << 30), budget / (1 << 30));
+    throw InputError(SourceLocation{scene.file}, text);
+  }
   auto sys = std::make_unique<RadiositySystem>();
   sys->scene = std::move(scene);
   if (options.patch_size > 0.0)

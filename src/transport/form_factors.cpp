@@ -235,13 +235,19 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
 }
 
 bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster) {
+  // Four of five probes meeting the back of a surface: x is inside a closed object (or under a
+  // one-sided panel in contact). Four, not five: faces of objects nested or intersecting inside
+  // another can see each other's fronts through one probe, while a point under an open panel
+  // (a table top) sees past its edges with most probes, and a point in free space with all.
   static const double kTilt = std::sin(kPi / 3.0), kRise = std::cos(kPi / 3.0);
   static const Vec3 kProbes[5] = {Vec3(0, 0, 1), Vec3(kTilt, 0, kRise), Vec3(-kTilt, 0, kRise),
                                   Vec3(0, kTilt, kRise), Vec3(0, -kTilt, kRise)};
   const Frame frame = Frame::from_normal(p.normal);
+  int open = 0;
   for (const Vec3& d : kProbes) {
     Hit h = caster.intersect_from(x, p, frame.to_world(d));
-    if (!h.valid() || h.front) return false;
+    if (!h.valid() || h.front) ++open;
+    if (open > 1) return false;
   }
   return true;
 }
