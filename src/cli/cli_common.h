@@ -52,5 +52,6 @@ void add_compare_command(CLI::App& app, int& exit_code);
 void add_precompute_command(CLI::App& app, int& exit_code);
 void add_relight_command(CLI::App& app, int& exit_code);
 void add_convergence_command(CLI::App& app, int& exit_code);
+void add_sweep_command(CLI::App& app, int& exit_code);
 
 }  // namespace polyrad::cli

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   add_precompute_command(app, exit_code);
   add_relight_command(app, exit_code);
   add_convergence_command(app, exit_code);
+  add_sweep_command(app, exit_code);
 
   try {
     app.parse(argc, argv);
