@@ -66,6 +66,9 @@ struct ImageComparison {
   double relative_rmse = 0.0;
   double mean_relative_error = 0.0;
   double normalized_rmse = 0.0;
+  // sum |a - b| / sum |b| over pixels and channels (no floor: bright regions weigh by their
+  // brightness, as an eye comparing totals would).
+  double relative_l1 = 0.0;
   Rgb mean_a = Rgb::Zero(), mean_b = Rgb::Zero();
   std::vector<RegionFigures> regions;  // the regions that have pixels, in label order
   long long pixels_without_region = 0;

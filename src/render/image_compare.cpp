@@ -101,7 +101,7 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
   size_t nregions = regions ? regions->names.size() : 0;
   std::vector<Rgb> sum_a(nregions, Rgb::Zero()), sum_b(nregions, Rgb::Zero());
   std::vector<long long> count(nregions, 0);
-  double rel2 = 0.0, rel1 = 0.0, norm2 = 0.0;
+  double rel2 = 0.0, rel1 = 0.0, norm2 = 0.0, l1_diff = 0.0, l1_base = 0.0;
   std::vector<PixelError> pixels;
   pixels.reserve(n);
   for (int y = 0; y < a.height; ++y)
@@ -113,6 +113,8 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
         double den = std::abs(vb[k]) + c.epsilon[k];
         if (den > 0.0) rel1 += std::abs(d[k]) / den;
         else if (d[k] != 0.0) rel1 = std::numeric_limits<double>::infinity();
+        l1_diff += std::abs(d[k]);
+        l1_base += std::abs(vb[k]);
         if (c.mean_b[k] != 0.0) norm2 += d[k] * d[k] / (c.mean_b[k] * c.mean_b[k]);
         else if (d[k] != 0.0) norm2 = std::numeric_limits<double>::infinity();
       }
@@ -135,6 +137,7 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
   c.relative_rmse = std::sqrt(rel2 / samples);
   c.mean_relative_error = rel1 / samples;
   c.normalized_rmse = std::sqrt(norm2 / samples);
+  c.relative_l1 = l1_base > 0.0 ? l1_diff / l1_base : (l1_diff > 0.0 ? INFINITY : 0.0);
 
   for (size_t r = 0; r < nregions; ++r) {
     if (count[r] == 0) continue;
