@@ -1,0 +1,411 @@
+// Issue 4's benchmarks: the precomputed power series and the single product that relights.
+//
+//   triad                  the reference kernel: a STREAM triad a = b + s c over floats, OpenMP
+//                          like the product, at sizes from in-cache to far beyond
+//   product                SeriesOperator::apply on view-mode operators of growing size (the
+//                          scene's camera at 64^2 .. 1024^2 pixels, one column per light patch),
+//                          alternated in one loop with a triad over the same number of bytes;
+//                          bandwidth_ratio = product bytes/s over triad bytes/s. Target: >= 0.6
+//                          once the operator no longer fits in cache (> 32 MiB)
+//   precompute             precompute_series against the order K = 1, 5, 10, 20, 40
+//   relight_product        the product of an operator precomputed to a tolerance (median)
+//   iterative_same_error   Gauss-Seidel + camera gather to the same image error as that
+//                          product; speedup = its median over the product's. Target: >= 1000.
+//                          Both on the scene as written and with every patch size 25: the
+//                          product's cost follows pixels x lamp patches, the solve's the patches
+//
+// All on cornell-mirror-cube, as written (patch size 50, the lamp 20) unless said otherwise.
+// Bytes touched by a product: the operator
+// (SeriesOperator::bytes()) plus the emission and output vectors, as `polyrad relight` reports.
+// The systems, gathers and operators are built once in the fixtures' SetUp and kept, outside
+// every timing loop. Targets are reported, never enforced: scripts/bench_summary.py prints
+// PASS/FAIL.
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "bench_common.h"
+#include "polyrad/camera_gather.h"
+#include "polyrad/pipeline.h"
+#include "polyrad/series.h"
+#include "polyrad/solver.h"
+
+namespace polyrad {
+
+const std::string kScene = std::string(POLYRAD_SCENES_DIR) + "/cornell-mirror-cube.json";
+
+namespace {
+
+constexpr double kCacheBytes = 32.0 * 1024 * 1024;  // beyond this the bandwidth target applies
+
+using bench::bytes_counter;
+using bench::median;
+using bench::seconds_since;
+using bench::timed_loop;
+
+// ---- the reference kernel --------------------------------------------------------------------
+
+// Three float arrays, first touched by the threads that will stream them (the same static
+// schedule as the triad), so that pages sit where the work is.
+class TriadArrays {
+ public:
+  explicit TriadArrays(std::int64_t n) : n_(n), a_(new float[n]), b_(new float[n]), c_(new float[n]) {
+    float* a = a_.get();
+    float* b = b_.get();
+    float* c = c_.get();
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < n; ++i) {
+      a[i] = 0.0f;
+      b[i] = 1.0f;
+      c[i] = 2.0f;
+    }
+  }
+  // STREAM's triad. STREAM counts 3 arrays of bytes (the write-allocate read of a is not
+  // counted), and so does bytes().
+  void run(float s) {
+    float* a = a_.get();
+    const float* b = b_.get();
+    const float* c = c_.get();
+    const std::int64_t n = n_;
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
+    benchmark::DoNotOptimize(a);
+    benchmark::ClobberMemory();
+  }
+  double bytes() const { return 3.0 * sizeof(float) * static_cast<double>(n_); }
+
+ private:
+  std::int64_t n_;
+  std::unique_ptr<float[]> a_, b_, c_;
+};
+
+void triad(benchmark::State& state) {
+  const std::int64_t bytes = state.range(0) << 20;
+  TriadArrays arrays(bytes / (3 * static_cast<std::int64_t>(sizeof(float))));
+  std::vector<double> times = timed_loop(state, [&] { arrays.run(3.0f); });
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * arrays.bytes()));
+  state.counters["bytes"] = bytes_counter(arrays.bytes());
+  state.counters["median_bytes_per_second"] = bytes_counter(arrays.bytes() / median(times));
+}
+BENCHMARK(triad)
+    ->ArgNames({"MiB"})
+    ->RangeMultiplier(4)
+    ->Range(1, 1024)
+    ->MinTime(0.5)
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// ---- what the benchmarks share, built once ---------------------------------------------------
+
+// cornell-mirror-cube as written (patch_size 0: 50, the lamp 20, so 42 lamp patches and as
+// many columns in the patch basis), or with every patch size set to one value.
+RadiositySystem& mirror_cube(int patch_size = 0) {
+  static std::map<int, std::unique_ptr<RadiositySystem>> cache;
+  auto& sys = cache[patch_size];
+  if (!sys) {
+    PipelineOptions o;
+    o.patch_size = patch_size;
+    sys = build_system(load_scene(kScene), o);
+  }
+  return *sys;
+}
+
+std::string patch_size_name(int patch_size) {
+  return patch_size > 0 ? "patch size " + std::to_string(patch_size) : "the scene's patch sizes";
+}
+
+// The camera gather of the scene's camera at width x width pixels (the scene's is 256).
+const Gather& gather_at(int patch_size, int width) {
+  static std::map<std::pair<int, int>, std::unique_ptr<Gather>> cache;
+  auto& g = cache[{patch_size, width}];
+  if (!g) {
+    RadiositySystem& sys = mirror_cube(patch_size);
+    Camera camera = sys.scene.camera;
+    camera.width = camera.height = width;
+    g = std::make_unique<Gather>(
+        build_gather(camera, sys.patches, sys.scene.materials, *sys.caster, sys.transport, {}));
+  }
+  return *g;
+}
+
+SeriesOptions view_options(SeriesBasis basis) {
+  SeriesOptions o;
+  o.output = SeriesOutput::kView;
+  o.basis = basis;
+  o.progress = false;
+  return o;
+}
+
+// Relative L1 difference of two images over every channel of every pixel.
+double image_error(const Image& a, const Image& reference) {
+  double diff = 0.0, norm = 0.0;
+  for (size_t k = 0; k < reference.rgb.size(); ++k) {
+    diff += std::abs(static_cast<double>(a.rgb[k]) - reference.rgb[k]);
+    norm += std::abs(static_cast<double>(reference.rgb[k]));
+  }
+  return norm > 0.0 ? diff / norm : diff;
+}
+
+Image product_image(const SeriesOperator& q) {
+  std::vector<float> e = q.column_emission(), out(3 * static_cast<size_t>(q.rows()));
+  q.apply(e.data(), out.data());
+  return series_image(q, out);
+}
+
+// ---- the product against the triad, at growing sizes -----------------------------------------
+
+class ProductFixture : public benchmark::Fixture {
+ public:
+  void SetUp(const benchmark::State& state) override {
+    const int width = static_cast<int>(state.range(0));
+    static std::map<int, std::unique_ptr<SeriesOperator>> cache;
+    auto& q = cache[width];
+    if (!q) {
+      RadiositySystem& sys = mirror_cube();
+      SeriesOptions o = view_options(SeriesBasis::kPatch);
+      // A fixed order: past a few terms the pattern of non-zeros, which is all the product's
+      // speed depends on, no longer changes.
+      o.order = 20;
+      q = std::make_unique<SeriesOperator>(
+          precompute_series(sys.transport, sys.patches, sys.scene, &gather_at(0, width), o));
+    }
+    op = q.get();
+    e = op->column_emission();
+    out.assign(3 * static_cast<size_t>(op->rows()), 0.0f);
+    bytes = static_cast<double>(op->bytes()) + 3.0 * sizeof(float) * static_cast<double>(op->cols() + op->rows());
+    arrays = std::make_unique<TriadArrays>(static_cast<std::int64_t>(bytes / (3 * sizeof(float))));
+  }
+  void TearDown(const benchmark::State&) override { arrays.reset(); }
+
+  const SeriesOperator* op = nullptr;
+  std::vector<float> e, out;
+  double bytes = 0.0;
+  std::unique_ptr<TriadArrays> arrays;
+};
+
+// The product and the triad alternate, each timed on its own: a burst of load from elsewhere
+// spoils a few iterations of both, which the medians then ignore.
+BENCHMARK_DEFINE_F(ProductFixture, product)(benchmark::State& state) {
+  std::vector<double> tp, tt;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    op->apply(e.data(), out.data());
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+    tp.push_back(seconds_since(t0));
+    t0 = std::chrono::steady_clock::now();
+    arrays->run(3.0f);
+    tt.push_back(seconds_since(t0));
+    state.SetIterationTime(tp.back());
+  }
+  const double product_bps = bytes / median(tp), triad_bps = arrays->bytes() / median(tt);
+  state.counters["rows"] = static_cast<double>(op->rows());
+  state.counters["cols"] = static_cast<double>(op->cols());
+  state.counters["nnz"] = static_cast<double>(op->nnz());
+  state.counters["bytes"] = bytes_counter(bytes);
+  state.counters["product_bytes_per_second"] = bytes_counter(product_bps);
+  state.counters["triad_bytes_per_second"] = bytes_counter(triad_bps);
+  state.counters["bandwidth_ratio"] = product_bps / triad_bps;
+  state.counters["beyond_cache"] = bytes > kCacheBytes ? 1 : 0;
+  state.SetLabel("view " + std::to_string(op->width) + "x" + std::to_string(op->height) +
+                 ", patch basis, K " + std::to_string(op->report.order));
+}
+BENCHMARK_REGISTER_F(ProductFixture, product)
+    ->ArgNames({"pixels_per_side"})
+    ->Arg(64)
+    ->Arg(128)
+    ->Arg(256)
+    ->Arg(512)
+    ->Arg(1024)
+    ->MinTime(1.0)
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// ---- precompute time against K ---------------------------------------------------------------
+
+class PrecomputeFixture : public benchmark::Fixture {
+ public:
+  void SetUp(const benchmark::State&) override {
+    sys = &mirror_cube();
+    gather = &gather_at(0, sys->scene.camera.width);
+  }
+  RadiositySystem* sys = nullptr;
+  const Gather* gather = nullptr;
+};
+
+BENCHMARK_DEFINE_F(PrecomputeFixture, precompute)(benchmark::State& state) {
+  SeriesOptions o = view_options(SeriesBasis::kPatch);
+  o.order = static_cast<int>(state.range(0));
+  SeriesOperator q;
+  std::vector<double> times = timed_loop(state, [&] {
+    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, o);
+    benchmark::DoNotOptimize(q.values());
+  });
+  state.counters["median_ms"] = 1e3 * median(times);
+  state.counters["order"] = q.report.order;
+  state.counters["cols"] = static_cast<double>(q.cols());
+  state.counters["nnz"] = static_cast<double>(q.nnz());
+  state.counters["bytes"] = bytes_counter(static_cast<double>(q.bytes()));
+  state.counters["apriori_bound"] = q.report.apriori_bound;
+  state.counters["aposteriori_estimate"] = q.report.aposteriori_estimate;
+  state.SetLabel("view " + std::to_string(q.width) + "x" + std::to_string(q.height) + ", patch basis");
+}
+BENCHMARK_REGISTER_F(PrecomputeFixture, precompute)
+    ->ArgNames({"order"})
+    ->Arg(1)
+    ->Arg(5)
+    ->Arg(10)
+    ->Arg(20)
+    ->Arg(40)
+    ->MinTime(1.0)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// ---- relighting against the iterative solve to the same error --------------------------------
+
+// An operator precomputed to a tolerance, and the cheapest Gauss-Seidel run that renders the
+// scene's view with no larger an image error: as many sweeps as it needs and no more (a
+// tolerance on the residual would stop later, which would flatter the product).
+struct RelightCase {
+  SeriesOperator q;
+  double series_error = 0.0;     // relative L1 image error of the product
+  int sweeps = 0;                // Gauss-Seidel sweeps to reach it
+  double iterative_error = 0.0;  // and the error they reach
+};
+
+constexpr int kMaxSweeps = 200;
+
+// The scene's view of a tightly converged solve.
+const Image& reference_image(int patch_size) {
+  static std::map<int, Image> cache;
+  auto it = cache.find(patch_size);
+  if (it != cache.end()) return it->second;
+  RadiositySystem& sys = mirror_cube(patch_size);
+  const TransportOperator& t = sys.transport;
+  SolveResult r = solve(t, t.emission(), {.method = SolveMethod::kGaussSeidel, .tolerance = 1e-12});
+  return cache[patch_size] = apply_gather(gather_at(patch_size, sys.scene.camera.width), r.u);
+}
+
+const RelightCase& relight_case(int patch_size, SeriesBasis basis, int tolerance_exponent) {
+  static std::map<std::tuple<int, int, int>, std::unique_ptr<RelightCase>> cache;
+  auto& c = cache[{patch_size, static_cast<int>(basis), tolerance_exponent}];
+  if (c) return *c;
+  c = std::make_unique<RelightCase>();
+  RadiositySystem& sys = mirror_cube(patch_size);
+  const TransportOperator& t = sys.transport;
+  const Gather& g = gather_at(patch_size, sys.scene.camera.width);
+  const Image& reference = reference_image(patch_size);
+  SeriesOptions o = view_options(basis);
+  o.tolerance = std::pow(10.0, -tolerance_exponent);
+  c->q = precompute_series(t, sys.patches, sys.scene, &g, o);
+  c->series_error = image_error(product_image(c->q), reference);
+  for (int n = 1; n <= kMaxSweeps; ++n) {
+    SolveResult r = solve(t, t.emission(), {.method = SolveMethod::kGaussSeidel, .fixed_sweeps = n});
+    c->sweeps = n;
+    c->iterative_error = image_error(apply_gather(g, r.u), reference);
+    if (c->iterative_error <= c->series_error) break;
+  }
+  return *c;
+}
+
+class RelightFixture : public benchmark::Fixture {
+ public:
+  void SetUp(const benchmark::State& state) override {
+    patch_size = static_cast<int>(state.range(0));
+    basis = state.range(1) == 0 ? SeriesBasis::kPatch : SeriesBasis::kObject;
+    tolerance_exponent = static_cast<int>(state.range(2));
+    c = &relight_case(patch_size, basis, tolerance_exponent);
+    sys = &mirror_cube(patch_size);
+    gather = &gather_at(patch_size, sys->scene.camera.width);
+  }
+  // Median of single products, timed one by one (the way `polyrad relight` reports it).
+  double product_median(int repeats) const {
+    std::vector<float> e = c->q.column_emission(), out(3 * static_cast<size_t>(c->q.rows()));
+    std::vector<double> times;
+    for (int r = 0; r < repeats; ++r) {
+      auto t0 = std::chrono::steady_clock::now();
+      c->q.apply(e.data(), out.data());
+      benchmark::DoNotOptimize(out.data());
+      benchmark::ClobberMemory();
+      times.push_back(seconds_since(t0));
+    }
+    return median(times);
+  }
+  std::string label() const {
+    return patch_size_name(patch_size) + ", " + std::to_string(sys->patches.size()) +
+           " patches, " + series_basis_name(basis) + " basis, tolerance 1e-" +
+           std::to_string(tolerance_exponent) + ", K " + std::to_string(c->q.report.order) +
+           ", " + std::to_string(c->sweeps) + " Gauss-Seidel sweeps";
+  }
+
+  int patch_size = 0;
+  SeriesBasis basis = SeriesBasis::kPatch;
+  int tolerance_exponent = 3;
+  const RelightCase* c = nullptr;
+  RadiositySystem* sys = nullptr;
+  const Gather* gather = nullptr;
+};
+
+BENCHMARK_DEFINE_F(RelightFixture, relight_product)(benchmark::State& state) {
+  std::vector<float> e = c->q.column_emission(), out(3 * static_cast<size_t>(c->q.rows()));
+  std::vector<double> times = timed_loop(state, [&] {
+    c->q.apply(e.data(), out.data());
+    benchmark::DoNotOptimize(out.data());
+  });
+  const double bytes = static_cast<double>(c->q.bytes()) +
+                       3.0 * sizeof(float) * static_cast<double>(c->q.cols() + c->q.rows());
+  state.counters["order"] = c->q.report.order;
+  state.counters["cols"] = static_cast<double>(c->q.cols());
+  state.counters["nnz"] = static_cast<double>(c->q.nnz());
+  state.counters["bytes"] = bytes_counter(bytes);
+  state.counters["median_ms"] = 1e3 * median(times);
+  state.counters["bytes_per_second"] = bytes_counter(bytes / median(times));
+  state.counters["image_error"] = c->series_error;
+  state.counters["patches"] = static_cast<double>(sys->patches.size());
+  state.SetLabel(label());
+}
+BENCHMARK_REGISTER_F(RelightFixture, relight_product)
+    ->ArgNames({"patch_size", "basis", "tolerance_exp"})
+    ->ArgsProduct({{0, 25}, {0, 1}, {3, 4}})
+    ->MinTime(1.0)
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// Each iteration: the solve and the gather that turn the scene's emission into the image.
+// The product is timed again right after the loop, so that the speedup compares two figures
+// taken under the same load.
+BENCHMARK_DEFINE_F(RelightFixture, iterative_same_error)(benchmark::State& state) {
+  const TransportOperator& t = sys->transport;
+  const Field e = t.emission();
+  std::vector<double> times = timed_loop(state, [&] {
+    SolveResult r = solve(t, e, {.method = SolveMethod::kGaussSeidel, .fixed_sweeps = c->sweeps});
+    Image img = apply_gather(*gather, r.u);
+    benchmark::DoNotOptimize(img.rgb.data());
+  });
+  const double product = product_median(201);
+  state.counters["patches"] = static_cast<double>(sys->patches.size());
+  state.counters["sweeps"] = c->sweeps;
+  state.counters["image_error"] = c->iterative_error;
+  state.counters["series_image_error"] = c->series_error;
+  state.counters["median_ms"] = 1e3 * median(times);
+  state.counters["product_median_ms"] = 1e3 * product;
+  state.counters["speedup"] = median(times) / product;
+  state.SetLabel(label());
+}
+BENCHMARK_REGISTER_F(RelightFixture, iterative_same_error)
+    ->ArgNames({"patch_size", "basis", "tolerance_exp"})
+    ->ArgsProduct({{0, 25}, {0, 1}, {3, 4}})
+    ->MinTime(1.0)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace polyrad
+
+int main(int argc, char** argv) {
+  return polyrad::bench::run_benchmarks(argc, argv, polyrad::kScene);
+}
