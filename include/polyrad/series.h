@@ -87,7 +87,9 @@ struct SeriesColumn {
   Rgb emission = Rgb::Zero();
 };
 
-// Q in compressed rows with RGB entries, owned or mapped from a file (prt_file.h).
+// Q with RGB entries, owned or mapped from a file (prt_file.h). Stored dense (rows x columns,
+// no indices: the product streams the values) when at least 3/4 of the entries are non-zero,
+// as a view operator's are, else in compressed rows.
 class SeriesOperator {
  public:
   SeriesOperator() = default;
@@ -108,7 +110,9 @@ class SeriesOperator {
 
   std::int64_t rows() const { return rows_; }
   std::int64_t cols() const { return static_cast<std::int64_t>(columns.size()); }
-  std::int64_t nnz() const { return rows_ > 0 ? start_[rows_] : 0; }
+  bool dense() const { return start_ == nullptr; }
+  // Stored entries (all rows x columns when dense).
+  std::int64_t nnz() const { return dense() ? rows_ * cols() : (rows_ > 0 ? start_[rows_] : 0); }
   std::size_t bytes() const;
 
   // out (3 rows floats) = Q e, e: 3 floats per column. The one sparse product; parallel over
@@ -121,11 +125,14 @@ class SeriesOperator {
   // Names of the emitting objects, in column order.
   std::vector<std::string> light_names() const;
 
-  // Storage: owned arrays, or pointers into a mapping kept alive by `keep`.
+  // Storage: owned arrays, or pointers into a mapping kept alive by `keep`. Empty start and
+  // column (null pointers) mean the dense layout.
   void set_data(std::int64_t rows, std::vector<std::int64_t> start, std::vector<std::uint32_t> column,
                 std::vector<float> values_f, std::vector<std::uint16_t> values_h);
   void set_view(std::int64_t rows, const std::int64_t* start, const std::uint32_t* column,
                 const void* values, std::shared_ptr<const void> keep);
+  // Converts compressed rows to the dense layout when at least `fill` of the entries are stored.
+  void densify_if(double fill);
   const std::int64_t* start() const { return start_; }
   const std::uint32_t* column() const { return column_; }
   const void* values() const { return values_; }

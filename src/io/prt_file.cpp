@@ -38,6 +38,7 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
   w.value("output", series_output_name(q.output));
   w.value("basis", series_basis_name(q.basis));
   w.value("precision", value_precision_name(q.precision));
+  w.value("layout", q.dense() ? "dense" : "sparse");
   w.value("rows", static_cast<long long>(q.rows()));
   w.value("nnz", static_cast<long long>(q.nnz()));
   w.value("width", q.width).value("height", q.height);
@@ -92,13 +93,14 @@ std::string encode(const SeriesOperator& q) {
     link_pairs.push_back(static_cast<std::uint32_t>(l.from));
     link_pairs.push_back(static_cast<std::uint32_t>(l.to));
   }
-  std::vector<Blob> blobs = {
-      {"row_start", q.start(), sizeof(std::int64_t) * static_cast<std::size_t>(q.rows() + 1)},
-      {"column", q.column(), sizeof(std::uint32_t) * static_cast<std::size_t>(q.nnz())},
-      {"values", q.values(), 3 * value_size * static_cast<std::size_t>(q.nnz())},
-      {"links", link_pairs.data(), sizeof(std::uint32_t) * link_pairs.size()},
-      {"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()},
-  };
+  std::vector<Blob> blobs;
+  if (!q.dense()) {
+    blobs.push_back({"row_start", q.start(), sizeof(std::int64_t) * static_cast<std::size_t>(q.rows() + 1)});
+    blobs.push_back({"column", q.column(), sizeof(std::uint32_t) * static_cast<std::size_t>(q.nnz())});
+  }
+  blobs.push_back({"values", q.values(), 3 * value_size * static_cast<std::size_t>(q.nnz())});
+  blobs.push_back({"links", link_pairs.data(), sizeof(std::uint32_t) * link_pairs.size()});
+  blobs.push_back({"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()});
   // The header holds the section table, whose offsets depend on the header's length: iterate
   // until the length settles (digits only grow, so this ends).
   std::vector<Section> sections(blobs.size());
@@ -203,6 +205,9 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   if (output != "view" && output != "solution") refuse(name, "unknown output '" + output + "'");
   if (basis != "patch" && basis != "object") refuse(name, "unknown basis '" + basis + "'");
   if (precision != "float" && precision != "half") refuse(name, "unknown precision '" + precision + "'");
+  const std::string& layout = member(h, "layout", JsonValue::Kind::kString, name).string;
+  if (layout != "dense" && layout != "sparse") refuse(name, "unknown layout '" + layout + "'");
+  const bool dense = layout == "dense";
   q.output = output == "view" ? SeriesOutput::kView : SeriesOutput::kSolution;
   q.basis = basis == "patch" ? SeriesBasis::kPatch : SeriesBasis::kObject;
   q.precision = precision == "float" ? ValuePrecision::kFloat : ValuePrecision::kHalf;
@@ -276,17 +281,25 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
     }
     refuse(name, std::string("section '") + key + "' is missing");
   };
-  const auto* start = reinterpret_cast<const std::int64_t*>(section("row_start", 8 * static_cast<std::size_t>(rows + 1)));
-  const auto* column = reinterpret_cast<const std::uint32_t*>(section("column", 4 * static_cast<std::size_t>(nnz)));
+  if (dense && nnz != rows * static_cast<std::int64_t>(q.columns.size()))
+    refuse(name, "a dense operator must store rows x columns entries");
+  const std::int64_t* start = nullptr;
+  const std::uint32_t* column = nullptr;
+  if (!dense) {
+    start = reinterpret_cast<const std::int64_t*>(section("row_start", 8 * static_cast<std::size_t>(rows + 1)));
+    column = reinterpret_cast<const std::uint32_t*>(section("column", 4 * static_cast<std::size_t>(nnz)));
+  }
   const void* values = section("values", 3 * value_size * static_cast<std::size_t>(nnz));
   const auto* link_pairs = reinterpret_cast<const std::uint32_t*>(section("links", 8 * static_cast<std::size_t>(links)));
   const auto* flux = reinterpret_cast<const double*>(section("flux_weight", 8 * static_cast<std::size_t>(q.layout.num_patches + links)));
   // Indices must be safe to follow: rows non-decreasing up to nnz, columns below cols.
-  if (start[0] != 0 || start[rows] != nnz) refuse(name, "the row table is inconsistent");
-  for (std::int64_t k = 0; k < rows; ++k)
-    if (start[k + 1] < start[k]) refuse(name, "the row table is inconsistent");
-  for (std::int64_t k = 0; k < nnz; ++k)
-    if (column[k] >= q.columns.size()) refuse(name, "a column index is out of range");
+  if (!dense) {
+    if (start[0] != 0 || start[rows] != nnz) refuse(name, "the row table is inconsistent");
+    for (std::int64_t k = 0; k < rows; ++k)
+      if (start[k + 1] < start[k]) refuse(name, "the row table is inconsistent");
+    for (std::int64_t k = 0; k < nnz; ++k)
+      if (column[k] >= q.columns.size()) refuse(name, "a column index is out of range");
+  }
   q.layout.links.resize(links);
   q.layout.link_start.assign(q.layout.num_patches + 1, 0);
   for (std::int64_t l = 0; l < links; ++l) {
