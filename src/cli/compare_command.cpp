@@ -70,6 +70,7 @@ int run_compare(const CompareFlags& f) {
     w.value("epsilon_fraction", f.epsilon);
     write_rgb(w, "epsilon", c.epsilon);
     w.value("relative_rmse", c.relative_rmse);
+    w.value("relative_l1", c.relative_l1);
     w.value("mean_relative_error", c.mean_relative_error);
     w.value("normalized_rmse", c.normalized_rmse);
     write_rgb(w, "mean_a", c.mean_a);

@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Radiosity against a path-traced reference of the same scene, camera and materials, at several
+# patch sizes (issue 5). For each scene: a high-sample reference (cached), then radiosity in
+# smooth and flat shading at each patch size, compared region by region; a markdown table and
+# side-by-side pictures under DIR.
+#
+#   ./scripts/accuracy_study.sh [DIR] [SPP] [SCENES...]
+#     DIR     output (default out/accuracy)      SPP  reference samples per pixel (default 4096)
+#     SCENES  default: cornell-box cornell-mirror-cube cornell-glossy
+# $POLYRAD names the binary (default: a Release build through scripts/build.sh).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="${1:-out/accuracy}"
+spp="${2:-4096}"
+shift $(( $# > 2 ? 2 : $# )) || true
+scenes=("$@")
+[ ${#scenes[@]} -eq 0 ] && scenes=(cornell-box cornell-mirror-cube cornell-glossy)
+if [ -z "${POLYRAD:-}" ]; then
+  "$root/scripts/deps.sh"
+  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
+fi
+mkdir -p "$out"
+table="$out/accuracy.md"
+{
+  echo "| scene | patch size | patches | shading | relative RMSE | mean relative error | relative L1 | largest region difference | time (s) |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+} > "$table.tmp"
+for scene in "${scenes[@]}"; do
+  file="$root/scenes/$scene.json"
+  ref="$out/$scene-pt$spp.exr"
+  if [ ! -f "$ref" ]; then
+    echo "accuracy: path tracing $scene at $spp spp" >&2
+    "$POLYRAD" --quiet render "$file" --method pathtrace --spp "$spp" -o "$ref" --report "$out/$scene-pt$spp.json"
+  fi
+  for size in 100 50 25; do
+    for shading in smooth flat; do
+      img="$out/$scene-p$size-$shading.exr"
+      "$POLYRAD" --quiet render "$file" --patch-size "$size" --diffuse "$shading" --tolerance 1e-6 \
+        -o "$img" --report "$out/$scene-p$size-$shading.json"
+      "$POLYRAD" --quiet compare "$img" "$ref" --scene "$file" --report "$out/$scene-p$size-$shading-cmp.json" \
+        --side-by-side "$out/$scene-p$size-$shading-compare.png" >/dev/null
+      /usr/bin/python3 - "$out" "$scene" "$size" "$shading" >> "$table.tmp" <<'PY'
+import json, sys
+out, scene, size, shading = sys.argv[1:]
+r = json.load(open(f"{out}/{scene}-p{size}-{shading}.json"))
+c = json.load(open(f"{out}/{scene}-p{size}-{shading}-cmp.json"))
+worst = max(c["regions"], key=lambda g: abs(g["luminance_difference"]))
+total = sum(r["seconds"].values())
+print(f"| {scene} | {size} | {r['patches']} | {shading} | {c['relative_rmse']:.3f} | "
+      f"{c['mean_relative_error']:.3f} | {c['relative_l1']:.3f} | "
+      f"{worst['name']} {100 * worst['luminance_difference']:+.1f}% | {total:.1f} |")
+PY
+    done
+  done
+done
+mv "$table.tmp" "$table"
+cat "$table"
