@@ -263,7 +263,9 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
   auto f = std::make_shared<PrecomputeFlags>();
   CLI::App* cmd = app.add_subcommand("precompute", "Precompute the truncated power series of the transport operator");
   cmd->add_option("scene", f->scene, "Scene file (JSON)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("-o,--output", f->output, "Operator file to write (.prt)")->required();
+  // `-o FILE` names the file and `--output view|solution` the rows, as the precompute has always
+  // been documented; `--file` and `--rows` are longer spellings of the same two.
+  cmd->add_option("-o,--file", f->output, "Operator file to write (.prt)")->required();
   auto* order = cmd->add_option("--order", f->order, "Order K of the series")->check(CLI::Range(0, 100000));
   cmd->add_option("--tolerance", f->tolerance, "Choose K for this relative error (flux-weighted)")
       ->check(CLI::Range(1e-14, 1.0))
@@ -275,7 +277,7 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--precision", f->precision, "Stored value precision")
       ->check(CLI::IsMember({"float", "half"}))
       ->capture_default_str();
-  cmd->add_option("--output-kind,--rows", f->output_kind, "Rows: the camera's pixels, or every unknown")
+  cmd->add_option("--output,--rows,--output-kind", f->output_kind, "Rows: the camera's pixels, or every unknown")
       ->check(CLI::IsMember({"view", "solution"}))
       ->capture_default_str();
   cmd->add_option("--basis", f->basis, "Columns: one per emitting patch, or one per emitting object")

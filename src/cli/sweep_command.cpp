@@ -518,7 +518,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
       ->delimiter(',')
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
-  auto* drops = cmd->add_option("--drops", f->drops, "Series drop tolerances (fraction of a column's largest)")
+  auto* drops = cmd->add_option("--drops", f->drops, "Series drop tolerances (share of a column's energy dropped)")
                     ->delimiter(',')
                     ->check(CLI::Range(0.0, 0.999999))
                     ->capture_default_str();
