@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Copies the pictures the README shows from out/ into docs/images/, composing a few strips.
+# Everything comes from the project's own runs, never from hand-edited numbers:
+#   out/*.png                  ./scripts/demo.sh          (demo images, relit images)
+#   out/charts/*.png           ./scripts/demo.sh          (sweep charts), and
+#                              polyrad convergence + scripts/convergence_chart.py (convergence.png)
+#   out/accuracy/*             ./scripts/accuracy_study.sh (radiosity | path traced | error)
+#   out/lobe/*                 ./scripts/lobe_study.sh    (coarse mesh under a sharp lobe)
+# A missing source is skipped with a note, so the script can refresh part of the pictures.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+polyrad="${POLYRAD:-build/release/src/polyrad}"
+dst=docs/images
+mkdir -p "$dst"
+
+copy() {  # copy SRC DST-NAME
+  if [ -f "$1" ]; then cp "$1" "$dst/$2"; echo "readme_images: $dst/$2"; else echo "readme_images: skipped $2 ($1 missing)" >&2; fi
+}
+
+copy out/radiosity.png mirror-cube-radiosity.png
+copy out/compare.png mirror-cube-compare.png
+for c in error_vs_time error_vs_order cost_vs_patches convergence; do copy "out/charts/$c.png" "$c.png"; done
+copy out/lobe/lobe.png sharp-lobe.png
+
+# Strips: images side by side (--row) or one above the other (--column), 6 px white gaps.
+strip() {
+  /usr/bin/python3 - "$@" <<'EOF'
+import sys
+import matplotlib.image as mpimg
+import numpy as np
+mode, out, files = sys.argv[1], sys.argv[2], sys.argv[3:]
+ims = [mpimg.imread(f)[..., :3] for f in files]
+axis = 1 if mode == "--row" else 0
+shape = list(ims[0].shape)
+shape[axis] = 6
+gap = np.ones(shape, dtype=ims[0].dtype)
+parts = []
+for im in ims:
+    parts += [im, gap]
+mpimg.imsave(out, np.concatenate(parts[:-1], axis=axis))
+print("readme_images:", out)
+EOF
+}
+
+relit=(out/radiosity.png out/relit-as-scene.png out/relit-double.png out/relit-blue.png)
+if [ -f "${relit[3]}" ]; then strip --row "$dst/relit.png" "${relit[@]}"; fi
+
+for scene in cornell-box cornell-mirror-cube cornell-glossy; do
+  files=()
+  for p in 100 50 25; do files+=("out/accuracy/$scene-p$p-smooth-compare.png"); done
+  if [ -f "${files[0]}" ] && [ -f "${files[1]}" ] && [ -f "${files[2]}" ]; then
+    strip --column "$dst/accuracy-$scene.png" "${files[@]}"
+  else
+    echo "readme_images: skipped accuracy-$scene.png (run scripts/accuracy_study.sh)" >&2
+  fi
+done
+
+# Where the mirror cube adds light: each mirror-cube image against the same box with a diffuse
+# short block, radiosity (patch size 25) and path traced (4096 spp); red where the mirror adds.
+rad_m=out/accuracy/cornell-mirror-cube-p25-smooth.exr rad_d=out/accuracy/cornell-box-p25-smooth.exr
+pt_m=out/accuracy/cornell-mirror-cube-pt4096.exr pt_d=out/accuracy/cornell-box-pt4096.exr
+if [ -f "$rad_m" ] && [ -f "$rad_d" ] && [ -f "$pt_m" ] && [ -f "$pt_d" ]; then
+  tmp=$(mktemp -d)
+  trap 'rm -rf "$tmp"' EXIT
+  "$polyrad" --quiet compare "$rad_m" "$rad_d" --heatmap "$tmp/rad.png" --error-scale 1 >/dev/null
+  "$polyrad" --quiet compare "$pt_m" "$pt_d" --heatmap "$tmp/pt.png" --error-scale 1 >/dev/null
+  strip --row "$dst/caustics.png" "$tmp/rad.png" "$tmp/pt.png"
+else
+  echo "readme_images: skipped caustics.png (run scripts/accuracy_study.sh)" >&2
+fi
