@@ -1,7 +1,9 @@
 // Replays the fuzz seeds (fuzz/corpus) and every saved finding (fuzz/regressions) through the
 // same code as the libFuzzer targets (fuzz/fuzz_inputs.h): bad input may throw InputError and
-// nothing else may escape. Under the sanitizer build (build/asan in scripts/test.sh) a memory
-// error or undefined behaviour in any of them fails the run too. See docs/testing.md.
+// nothing else may escape. The .prt loader's seeds follow the file format of the day, so they are
+// made here, by this polyrad, and damaged in many small ways. Under the sanitizer build
+// (build/asan in scripts/test.sh) a memory error or undefined behaviour in any of them fails the
+// run too. See docs/testing.md.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,7 +16,12 @@
 #include <vector>
 
 #include "fuzz_inputs.h"
+#include "polyrad/camera_gather.h"
 #include "polyrad/error.h"
+#include "polyrad/pipeline.h"
+#include "polyrad/prt_file.h"
+#include "polyrad/series.h"
+#include "test_support.h"
 
 namespace polyrad {
 namespace {
@@ -43,21 +50,24 @@ std::string read_bytes(const fs::path& path) {
 
 enum class Outcome { kAccepted, kInputError, kOther };
 
-// Runs one input; anything but success or InputError is a test failure naming the file.
-Outcome replay(Run run, const fs::path& path) {
-  std::string bytes = read_bytes(path);
+// Runs one input; anything but success or InputError is a test failure naming the input.
+Outcome replay_bytes(Run run, const std::string& bytes, const std::string& what) {
   try {
     run(bytes);
     return Outcome::kAccepted;
   } catch (const InputError&) {
     return Outcome::kInputError;
   } catch (const std::exception& e) {
-    ADD_FAILURE() << path << ": " << typeid(e).name() << " escaped instead of InputError: "
-                  << e.what();
+    ADD_FAILURE() << what << ": " << typeid(e).name()
+                  << " escaped instead of InputError: " << e.what();
   } catch (...) {
-    ADD_FAILURE() << path << ": a non-standard exception escaped instead of InputError";
+    ADD_FAILURE() << what << ": a non-standard exception escaped instead of InputError";
   }
   return Outcome::kOther;
+}
+
+Outcome replay(Run run, const fs::path& path) {
+  return replay_bytes(run, read_bytes(path), path.string());
 }
 
 // Seeds: files named invalid_* must be refused with InputError, the others accepted.
@@ -82,6 +92,85 @@ TEST(FuzzRegression, SceneSeeds) { replay_corpus("corpus/scene", fuzz::scene_inp
 TEST(FuzzRegression, ObjSeeds) { replay_corpus("corpus/obj", fuzz::obj_input); }
 TEST(FuzzRegression, SceneFindings) { replay_findings("regressions/scene", fuzz::scene_input); }
 TEST(FuzzRegression, ObjFindings) { replay_findings("regressions/obj", fuzz::obj_input); }
+TEST(FuzzRegression, PrtFindings) { replay_findings("regressions/prt", fuzz::prt_input); }
+
+// The bytes of a .prt file that this polyrad writes for the fuzz seed scene.
+std::string prt_bytes(const RadiositySystem& sys, const Gather& gather, const SeriesOptions& o) {
+  SeriesOperator q = precompute_series(sys.transport, sys.patches, sys.scene,
+                                       o.output == SeriesOutput::kView ? &gather : nullptr, o);
+  std::string path = (test::temp_dir() / "seed.prt").string();
+  write_prt(q, path);
+  return read_bytes(path);
+}
+
+// read_prt_bytes on an aligned copy, without the checksum repair of fuzz::prt_input.
+Outcome read_as_is(const std::string& bytes, const std::string& what) {
+  return replay_bytes(
+      [](const std::string& b) {
+        fuzz::AlignedBytes file(b);
+        SeriesOperator q = read_prt_bytes(file.data, file.size, "damaged.prt");
+      },
+      bytes, what);
+}
+
+// The seeds scripts/fuzz.sh writes with `polyrad precompute`, made here in-process in the
+// layouts, precisions and bases there are: each must be accepted. Then each is cut short at many
+// lengths and has every byte changed in turn (one at a time). Without the checksum repaired,
+// every such file must be refused; with it (fuzz::prt_input), refused with InputError or accepted
+// as a consistent operator, and nothing else.
+TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
+  auto sys = build_system(load_scene(std::string(POLYRAD_FUZZ_DIR) + "/prt_seed_scene.json"));
+  Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
+                               sys->transport);
+  struct Variant {
+    SeriesOutput output;
+    ValuePrecision precision;
+    SeriesBasis basis;
+    double drop;
+  };
+  const Variant variants[] = {
+      {SeriesOutput::kView, ValuePrecision::kFloat, SeriesBasis::kPatch, 0.0},
+      {SeriesOutput::kView, ValuePrecision::kHalf, SeriesBasis::kObject, 0.0},
+      {SeriesOutput::kSolution, ValuePrecision::kFloat, SeriesBasis::kPatch, 0.3},
+      {SeriesOutput::kSolution, ValuePrecision::kHalf, SeriesBasis::kObject, 0.0},
+  };
+  bool dense = false, sparse = false, links = false;
+  for (const Variant& v : variants) {
+    SeriesOptions o;
+    o.order = 3;
+    o.output = v.output;
+    o.precision = v.precision;
+    o.basis = v.basis;
+    o.drop = v.drop;
+    o.progress = false;
+    const std::string bytes = prt_bytes(*sys, gather, o);
+    const std::string name = std::string(series_output_name(v.output)) + "-" +
+                             value_precision_name(v.precision) + "-" + series_basis_name(v.basis);
+    ASSERT_EQ(replay_bytes(fuzz::prt_input, bytes, name), Outcome::kAccepted) << name;
+    {
+      fuzz::AlignedBytes file(bytes);
+      SeriesOperator q = read_prt_bytes(file.data, file.size, name);
+      (q.dense() ? dense : sparse) = true;
+      links = links || !q.layout.links.empty();
+    }
+    for (std::size_t n = 0; n < bytes.size(); n += n < 64 ? 1 : 37) {
+      const std::string cut = bytes.substr(0, n), what = name + " cut to " + std::to_string(n);
+      EXPECT_EQ(read_as_is(cut, what), Outcome::kInputError) << what;
+      replay_bytes(fuzz::prt_input, cut, what);
+    }
+    const unsigned char patterns[3] = {0x01, 0x80, 0xff};
+    for (std::size_t at = 0; at < bytes.size(); ++at) {
+      std::string damaged = bytes;
+      const unsigned char p = patterns[at % 3];
+      damaged[at] = static_cast<char>(p == 0xff ? 0xff : damaged[at] ^ p);
+      if (damaged == bytes) continue;
+      const std::string what = name + " with byte " + std::to_string(at) + " changed";
+      EXPECT_EQ(read_as_is(damaged, what), Outcome::kInputError) << what;
+      replay_bytes(fuzz::prt_input, damaged, what);
+    }
+  }
+  EXPECT_TRUE(dense && sparse && links) << "the seeds should cover both layouts and the links";
+}
 
 }  // namespace
 }  // namespace polyrad

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -233,7 +234,9 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   q.gather.lobe_samples = static_cast<int>(count(g, "lobe_samples", name, 4096));
   q.gather.specular = member(g, "specular", JsonValue::Kind::kBool, name).boolean;
   q.gather.seed = static_cast<std::uint64_t>(count(g, "seed", name, 9e15));
-  q.layout.num_patches = static_cast<int>(count(h, "num_patches", name, limit));
+  // Patch indices are ints, and link_start has num_patches + 1 entries: however large the file,
+  // the count must leave room for that one more in an int.
+  q.layout.num_patches = static_cast<int>(count(h, "num_patches", name, std::min(limit, 2147483646.0)));
   const std::int64_t links = count(h, "links", name, limit);
 
   for (const auto& c : member(h, "columns", JsonValue::Kind::kArray, name).array) {
@@ -303,10 +306,15 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   q.layout.links.resize(links);
   q.layout.link_start.assign(q.layout.num_patches + 1, 0);
   for (std::int64_t l = 0; l < links; ++l) {
+    // Range-check the stored u32 values before they become (signed) PatchIds: one of 2^31 or
+    // more would turn negative, pass a signed `< num_patches` and index link_start before its
+    // start.
+    const auto patches = static_cast<std::uint32_t>(q.layout.num_patches);
+    if (link_pairs[2 * l] >= patches || link_pairs[2 * l + 1] >= patches)
+      refuse(name, "the link table is inconsistent");
     Link link{static_cast<PatchId>(link_pairs[2 * l]), static_cast<PatchId>(link_pairs[2 * l + 1])};
-    if (link.from >= q.layout.num_patches || link.to >= q.layout.num_patches ||
-        (l > 0 && (link.from < q.layout.links[l - 1].from ||
-                   (link.from == q.layout.links[l - 1].from && link.to <= q.layout.links[l - 1].to))))
+    if (l > 0 && (link.from < q.layout.links[l - 1].from ||
+                  (link.from == q.layout.links[l - 1].from && link.to <= q.layout.links[l - 1].to)))
       refuse(name, "the link table is inconsistent");
     q.layout.links[l] = link;
     ++q.layout.link_start[link.from + 1];
