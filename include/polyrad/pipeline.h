@@ -1,5 +1,6 @@
 // The stages from a scene to its transport operator, run in order and timed:
-//   mesh -> ray caster -> form factors -> specular transfer -> operator T.
+//   mesh -> ray caster -> form factors -> specular transfer (and the lobe resolution check)
+//   -> operator T.
 // What the CLI, the benchmarks and the tests share; each stage is also callable on its own.
 //
 //   auto sys = build_system(load_scene(path), {});
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "polyrad/form_factors.h"
+#include "polyrad/lobe_resolution.h"
 #include "polyrad/mesher.h"
 #include "polyrad/ray_caster.h"
 #include "polyrad/scene.h"
@@ -60,6 +62,9 @@ struct RadiositySystem {
   FormFactors form_factors;
   SpecularTransfer specular;
   TransportOperator transport;
+  // Each glossy object's lobe width against its patches' angle (lobe_resolution.h); those with
+  // `smeared` set are the warnings a caller should show.
+  std::vector<LobeResolution> lobes;
   std::vector<StageTime> times;
 
   RadiositySystem() = default;

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -50,6 +51,35 @@ void write_stage_times(JsonWriter& w, const std::vector<StageTime>& times) {
   w.end_object();
 }
 
+void write_lobe_checks(JsonWriter& w, const std::vector<LobeResolution>& lobes) {
+  auto fields = [&w](const LobeResolution& r) {
+    w.value("object", r.object_name).value("material", r.material_name).value("lobe", r.lobe);
+    w.value("lobe_width_degrees", r.lobe_degrees).value("patch_angle_degrees", r.patch_degrees);
+    w.value("patch_size", r.current_patch_size);
+    w.value("resolving_patch_size", r.resolving_patch_size);
+  };
+  w.begin_array("warnings");
+  for (const auto& r : lobes) {
+    if (!r.smeared) continue;
+    w.begin_object().value("kind", "lobe_smeared_by_patches");
+    fields(r);
+    w.value("message", describe_smear(r)).end_object();
+  }
+  w.end_array();
+  w.begin_array("lobe_resolution");
+  for (const auto& r : lobes) {
+    w.begin_object();
+    fields(r);
+    w.value("smeared", r.smeared).end_object();
+  }
+  w.end_array();
+}
+
+void print_warnings(const RadiositySystem& sys) {
+  for (const auto& r : sys.lobes)
+    if (r.smeared) std::fprintf(stderr, "polyrad: warning: %s\n", describe_smear(r).c_str());
+}
+
 void write_system(JsonWriter& w, const RadiositySystem& sys) {
   const auto& t = sys.transport;
   w.value("scene", sys.scene.file);
@@ -83,6 +113,7 @@ void write_system(JsonWriter& w, const RadiositySystem& sys) {
       .value("bytes", t.bytes())
       .value("max_albedo", t.max_albedo())
       .end_object();
+  write_lobe_checks(w, sys.lobes);
 }
 
 void write_solve(JsonWriter& w, const SolveResult& r) {

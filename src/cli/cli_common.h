@@ -28,6 +28,12 @@ std::string machine_description();
 void write_system(JsonWriter& w, const RadiositySystem& sys);
 void write_solve(JsonWriter& w, const SolveResult& r);
 void write_stage_times(JsonWriter& w, const std::vector<StageTime>& times);
+// "warnings": one entry per glossy object whose lobe the patches smear (lobe_resolution.h), and
+// "lobe_resolution": the check for every glossy object. write_system writes both.
+void write_lobe_checks(JsonWriter& w, const std::vector<LobeResolution>& lobes);
+
+// One "polyrad: warning: ..." line on stderr per smeared lobe of the system.
+void print_warnings(const RadiositySystem& sys);
 
 // patch,object,area,cx,cy,cz,nx,ny,nz,r,g,b: one row per patch, its diffuse radiosity B.
 void write_patch_csv(const std::string& path, const RadiositySystem& sys, const Field& u);

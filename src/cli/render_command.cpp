@@ -19,6 +19,7 @@ int render_iterative(const RenderFlags& f) {
   Scene scene = load_scene(f.scene, f.system.scene_options());
   double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   auto sys = build_system(std::move(scene), f.system.pipeline());
+  print_warnings(*sys);
 
   SolveOptions so;
   so.method = f.solver == "jacobi"      ? SolveMethod::kJacobi

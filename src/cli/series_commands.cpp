@@ -105,6 +105,7 @@ int run_precompute(const PrecomputeFlags& f) {
   if (!f.report.empty()) check_output_path(f.report, "report");
   auto t0 = std::chrono::steady_clock::now();
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
+  print_warnings(*sys);
   SeriesOptions o = series_options(f.order, f.tolerance, f.drop, f.precision, f.output_kind, f.basis,
                                    f.acceleration);
   std::unique_ptr<Gather> gather;
@@ -221,6 +222,7 @@ int render_series(const RenderFlags& f) {
   if (!f.patches_csv.empty()) throw InputError("--patches needs --method iterative (a view-mode series has no patch values)");
   auto t0 = std::chrono::steady_clock::now();
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
+  print_warnings(*sys);
   GatherOptions go;
   go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
   go.pixel_grid = f.pixel_grid;

@@ -93,6 +93,9 @@ std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions
                                               *sys->caster, options.specular);
     specular = &sys->specular;
     sys->times.push_back({"specular_transfer", watch.lap()});
+    // Before the on-the-fly mode releases the entries: the check reads them (no rays).
+    sys->lobes = check_lobe_resolution(sys->scene, sys->patches, sys->form_factors, sys->specular);
+    sys->times.push_back({"lobe_check", watch.lap()});
   }
   if (options.specular_transport && options.specular_on_the_fly) {
     OnTheFlySpecular source{&sys->patches, &sys->scene.materials, &sys->form_factors,
