@@ -282,6 +282,7 @@ TEST(LobeResolution, CausticErrorGrowsWithThePatchSizeWhereTheWarningSaysSo) {
     error.push_back(relative_l1(run.b, sharp_ref));
     warned.push_back(run.lobes[0].smeared);
     RecordProperty("relative_l1_at_" + std::to_string(size), std::to_string(error.back()));
+    RecordProperty("warned_at_" + std::to_string(size), warned.back() ? "yes" : "no");
   }
   // The caustic is about 0.8 wide; the ceiling's patches from 1 down to 0.125.
   for (size_t n = 1; n < sizes.size(); ++n) EXPECT_GT(error[n - 1], 1.25 * error[n]) << sizes[n];
