@@ -17,10 +17,8 @@ copy() {  # copy SRC DST-NAME
   if [ -f "$1" ]; then cp "$1" "$dst/$2"; echo "readme_images: $dst/$2"; else echo "readme_images: skipped $2 ($1 missing)" >&2; fi
 }
 
-copy out/radiosity.png mirror-cube-radiosity.png
 copy out/compare.png mirror-cube-compare.png
 for c in error_vs_time error_vs_order cost_vs_patches convergence; do copy "out/charts/$c.png" "$c.png"; done
-copy out/lobe/lobe.png sharp-lobe.png
 
 # Strips: images side by side (--row) or one above the other (--column), 6 px white gaps.
 strip() {
@@ -54,6 +52,14 @@ for scene in cornell-box cornell-mirror-cube cornell-glossy; do
     echo "readme_images: skipped accuracy-$scene.png (run scripts/accuracy_study.sh)" >&2
   fi
 done
+
+# Coarse mesh under a sharp lobe: scenes/stability/sharp-lobe at patch sizes 100 (warned) and 25.
+lobe=(out/lobe/sharp-p100-compare.png out/lobe/sharp-p25-compare.png)
+if [ -f "${lobe[0]}" ] && [ -f "${lobe[1]}" ]; then
+  strip --column "$dst/sharp-lobe.png" "${lobe[@]}"
+else
+  echo "readme_images: skipped sharp-lobe.png (run scripts/lobe_study.sh)" >&2
+fi
 
 # Where the mirror cube adds light: each mirror-cube image against the same box with a diffuse
 # short block, radiosity (patch size 25) and path traced (4096 spp); red where the mirror adds.
