@@ -459,9 +459,9 @@ inline void sparse_row(const Load& load, const std::uint32_t* column, std::int64
 // How far ahead of the row being summed the dense product asks for its values, once they come
 // from memory rather than cache. One thread reading one stream keeps too few cache misses in
 // flight to use the memory's bandwidth (0.55 to 0.6 of a STREAM triad here, which reads two
-// streams and writes a third); requesting the row about 8 KiB ahead raised that to 0.8 to 0.95
-// (docs/benchmarks.md). From cache the prefetches only cost instructions (0.7 fell to 0.44 at
-// 2 to 8 MiB), hence the threshold.
+// streams and writes a third); requesting the row about 8 KiB ahead raised that to 0.77 to 0.95
+// on one thread, 0.59 to 0.92 on two (docs/benchmarks.md). From cache the prefetches only cost
+// instructions (0.7 fell to 0.44 at 2 to 8 MiB), hence the threshold.
 constexpr std::int64_t kPrefetchBytes = 8192;
 constexpr std::size_t kPrefetchAbove = std::size_t(16) << 20;
 
