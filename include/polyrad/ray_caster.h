@@ -51,6 +51,13 @@ class RayCaster {
   // past the adjacent wall, and a point of a bent quad cannot be hidden by its own patch.
   bool segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, PatchId pb) const;
   bool segment_occluded(const Vec3& a, const Patch& pa, const Vec3& b, const Patch& pb) const;
+  // The same for a segment whose ends face each other: it leaves pa's front side and meets pb's
+  // front side, as wherever the form-factor kernel is positive, so each end is lifted along its
+  // normal without a side test. a_lifted = lifted_front(a, pa), computed once for a fan of
+  // segments from one point; length2 = |b - a|^2, which the caller already has.
+  Vec3 lifted_front(const Vec3& x, const Patch& p) const { return x + lift(p) * p.normal; }
+  bool facing_segment_occluded(const Vec3& a_lifted, const Patch& pa, const Vec3& b,
+                               const Patch& pb, double length2) const;
   // A ray leaving point x of patch p along d: the origin is lifted the same way to the side d
   // leaves on, and the ray starts there (tnear 0). Hit::t counts from the lifted origin.
   Hit intersect_from(const Vec3& x, PatchId p, const Vec3& d) const;

@@ -137,6 +137,14 @@ bool RayCaster::segment_occluded(const Vec3& a, const Patch& pa, const Vec3& b,
   return occluded(a1, b1 - a1, 0.0, 1.0);
 }
 
+bool RayCaster::facing_segment_occluded(const Vec3& a_lifted, const Patch& pa, const Vec3& b,
+                                        const Patch& pb, double length2) const {
+  const double reach = 2.0 * (lift(pa) + lift(pb));  // segment_occluded's shortest segment
+  if (length2 <= reach * reach) return false;
+  const Vec3 b_lifted = lifted_front(b, pb);
+  return occluded(a_lifted, b_lifted - a_lifted, 0.0, 1.0);
+}
+
 bool RayCaster::segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, PatchId pb) const {
   return segment_occluded(a, patches_[pa], b, patches_[pb]);
 }
