@@ -8,6 +8,9 @@
 //                          bandwidth_ratio = product bytes/s over triad bytes/s. Target: >= 0.6
 //                          once the operator no longer fits in cache (> 32 MiB)
 //   precompute             precompute_series against the order K = 1, 5, 10, 20, 40
+//   precompute_reorder     precompute_series with SeriesOptions::reorder none and rcm,
+//                          alternated in one loop; ratio = none's median over rcm's (above 1:
+//                          reverse Cuthill-McKee makes the precompute faster), K = 10, 20
 //   relight_product        the product of an operator precomputed to a tolerance (median)
 //   iterative_same_error   Gauss-Seidel + camera gather to the same image error as that
 //                          product; speedup = its median over the product's. Target: >= 1000.
@@ -262,6 +265,46 @@ BENCHMARK_REGISTER_F(PrecomputeFixture, precompute)
     ->Arg(20)
     ->Arg(40)
     ->MinTime(1.0)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// The same precompute with T's unknowns as built and renumbered by reverse Cuthill-McKee, each
+// iteration running both, each timed on its own, so that both medians see the same load.
+BENCHMARK_DEFINE_F(PrecomputeFixture, precompute_reorder)(benchmark::State& state) {
+  SeriesOptions plain = view_options(SeriesBasis::kPatch);
+  plain.order = static_cast<int>(state.range(0));
+  SeriesOptions rcm = plain;
+  rcm.reorder = SeriesReorder::kRcm;
+  SeriesOperator q;
+  std::vector<double> tn, tr;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, plain);
+    benchmark::DoNotOptimize(q.values());
+    tn.push_back(seconds_since(t0));
+    t0 = std::chrono::steady_clock::now();
+    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, rcm);
+    benchmark::DoNotOptimize(q.values());
+    tr.push_back(seconds_since(t0));
+    state.SetIterationTime(tn.back() + tr.back());
+  }
+  state.counters["none_median_s"] = median(tn);
+  state.counters["rcm_median_s"] = median(tr);
+  state.counters["ratio"] = median(tn) / median(tr);
+  state.counters["reorder_ms"] = 1e3 * q.report.reorder_seconds;
+  state.counters["bandwidth_before"] = static_cast<double>(q.report.bandwidth_before);
+  state.counters["bandwidth_after"] = static_cast<double>(q.report.bandwidth_after);
+  state.counters["unknowns"] = static_cast<double>(sys->transport.size());
+  state.SetLabel("view " + std::to_string(q.width) + "x" + std::to_string(q.height) +
+                 ", patch basis, K " + std::to_string(q.report.order) + ", none then rcm");
+}
+// A fixed count of pairs: at 1 to 3 s a pair, a minimum time would leave K = 20 two or three,
+// too few for a median under load.
+BENCHMARK_REGISTER_F(PrecomputeFixture, precompute_reorder)
+    ->ArgNames({"order"})
+    ->Arg(10)
+    ->Arg(20)
+    ->Iterations(9)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 

@@ -238,6 +238,15 @@ def series_section(rep, verdicts):
     out.append("")
     out.append(table(["K", "time", "nnz", "bytes", "a-priori bound", "a-posteriori estimate"], krows))
     out.append("")
+    rrows = [[int(a["order"]), "%.3f s" % e["none_median_s"], "%.3f s" % e["rcm_median_s"], "%.3f" % e["ratio"],
+              "%d -> %d" % (e["bandwidth_before"], e["bandwidth_after"]), "%.0f ms" % e["reorder_ms"]]
+             for a, e in sorted(runs(rep, "precompute_reorder"), key=lambda x: x[0]["order"]) if not failed(e)]
+    if rrows:
+        out.append("The same precompute with T's unknowns as built and renumbered by reverse Cuthill-McKee "
+                   "(alternated, medians; ratio = none over rcm, above 1 when the reordering is faster):")
+        out.append("")
+        out.append(table(["K", "none", "rcm", "ratio", "bandwidth", "ordering"], rrows))
+        out.append("")
     def key(a):
         return (a.get("patch_size", 0) or -1, a["basis"], a["tolerance_exp"])
 

@@ -176,6 +176,31 @@ TEST(Cli, SolutionRowsRelightLikeViewRows) {
   EXPECT_LT(diff / sum, 1e-5);  // the same sums in another order: float rounding only
 }
 
+TEST(Cli, ReorderFlagIsReportedAndBadValuesAreExitTwo) {
+  auto dir = test::temp_dir();
+  const std::string scene = test::scene_path("cornell-box"), prt = (dir / "r.prt").string(),
+                    rep = (dir / "r.json").string();
+  CliRun ok = run("precompute " + scene + " -o " + prt + " --patch-size 200 --order 3 --reorder rcm --report " + rep);
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  std::ifstream in(rep);
+  JsonValue report = parse_json(std::string((std::istreambuf_iterator<char>(in)), {}), rep);
+  ASSERT_NE(report.find("reorder"), nullptr);
+  EXPECT_EQ(report.find("reorder")->string, "rcm");
+  for (const char* key : {"bandwidth_before", "bandwidth_after", "reorder_seconds"})
+    EXPECT_NE(report.find(key), nullptr) << key;
+  EXPECT_LE(report.find("bandwidth_after")->number, report.find("bandwidth_before")->number);
+  for (const std::string& args :
+       {"precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder metis",
+        "precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder",
+        "render " + scene + " --method series -o " + (dir / "x.pfm").string() + " --reorder RCM"}) {
+    CliRun bad = run(args);
+    EXPECT_EQ(bad.code, 2) << args << "\n" << bad.err;
+    EXPECT_EQ(lines(bad.err), 1u) << bad.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.prt"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.pfm"));
+}
+
 TEST(Cli, RenderBySeriesMatchesIterative) {
   auto dir = test::temp_dir();
   std::string a = (dir / "s.pfm").string(), b = (dir / "i.pfm").string();

@@ -39,9 +39,13 @@ enum class SeriesBasis { kPatch, kObject };
 // [-rho, rho] (as for diffuse scenes): far fewer terms as the albedo nears 1, and relighting
 // stays one product.
 enum class SeriesAcceleration { kNone, kChebyshev };
+// How the precompute numbers T's unknowns for its block products: as built, or by reverse
+// Cuthill-McKee for locality (reorder.h). Internal to the precompute: Q is the same either way.
+enum class SeriesReorder { kNone, kRcm };
 const char* series_output_name(SeriesOutput o);
 const char* value_precision_name(ValuePrecision p);
 const char* series_basis_name(SeriesBasis b);
+const char* series_reorder_name(SeriesReorder r);
 
 struct SeriesOptions {
   int order = -1;            // K; -1: the smallest K that meets `tolerance`
@@ -59,6 +63,10 @@ struct SeriesOptions {
   SeriesAcceleration acceleration = SeriesAcceleration::kNone;
   // Chebyshev: the spectral radius rho; 0 estimates it from power steps (capped by a_max).
   double chebyshev_radius = 0.0;
+  // kRcm: the K block products run on a copy of T renumbered by reverse Cuthill-McKee (S is
+  // permuted in, each block's result back out before the rows are formed), for cache locality;
+  // each row sums in T's order, so Q is the same bits. Not with on-the-fly link rows.
+  SeriesReorder reorder = SeriesReorder::kNone;
 };
 
 // What the precompute measured; written into reports and the .prt header.
@@ -78,6 +86,10 @@ struct SeriesReport {
   long long nnz = 0;
   std::size_t bytes = 0;          // of the stored operator
   double seconds = 0.0;
+  SeriesReorder reorder = SeriesReorder::kNone;
+  long long bandwidth_before = 0; // max |row - column| over T's stored entries, as built
+  long long bandwidth_after = 0;  // ... in the numbering the products used (= before for kNone)
+  double reorder_seconds = 0.0;   // ordering and the permuted copy of T (part of `seconds`)
 };
 
 // One column of S: a unit emitter (a patch, or all patches of an object) and its scene emission.

@@ -84,14 +84,15 @@ double estimate_spectral_radius(const TransportOperator& t, const Field& e, int 
 // Varga): x_0 = e, x_1 = e + T x_0, x_{k+1} = w_{k+1} (e + T x_k - x_{k-1}) + x_{k-1} with
 // w_2 = 1 / (1 - rho^2 / 2), w_{k+1} = 1 / (1 - rho^2 w_k / 4). x_k is a degree-k polynomial
 // in T applied to e, linear in e, and converges like (rho / (1 + sqrt(1 - rho^2)))^k where the
-// power series converges like rho^k. F is a Field or a FieldBlock.
+// power series converges like rho^k. F is a Field or a FieldBlock; Op is T, or anything with
+// T's apply(const F&, F&) (the series precompute's PermutedTransport).
 //
 //   ChebyshevIteration<Field> it(t, e, rho);
 //   for (int k = 0; k < K; ++k) it.step();     // it.x() = x_K
-template <typename F>
+template <typename F, typename Op = TransportOperator>
 class ChebyshevIteration {
  public:
-  ChebyshevIteration(const TransportOperator& t, const F& e, double rho)
+  ChebyshevIteration(const Op& t, const F& e, double rho)
       : t_(t), e_(e), rho2_(rho * rho), x_(e) {}
   // Advances x by one product with T; returns the residual e + T x - x of the x it started from
   // (computed on the way).
@@ -113,7 +114,7 @@ class ChebyshevIteration {
   const F& x() const { return x_; }
 
  private:
-  const TransportOperator& t_;
+  const Op& t_;
   const F& e_;
   double rho2_;
   double w_ = 1.0;

@@ -107,6 +107,11 @@ void add_render_command(CLI::App& app, int& exit_code) {
                   "Series: plain power series, or the Chebyshev polynomial (diffuse scenes)")
       ->check(CLI::IsMember({"none", "chebyshev"}))
       ->capture_default_str();
+  cmd->add_option("--reorder", flags->reorder,
+                  "Series: number the unknowns as built, or by reverse Cuthill-McKee for the "
+                  "locality of the precompute's products (the same image)")
+      ->check(CLI::IsMember({"none", "rcm"}))
+      ->capture_default_str();
   cmd->add_option("--spp", flags->spp, "Path tracer: samples per pixel")
       ->check(CLI::Range(1, 1 << 24))
       ->capture_default_str();

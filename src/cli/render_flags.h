@@ -17,6 +17,7 @@ struct RenderFlags {
   // series
   int order = -1;  // -1: chosen from --tolerance
   std::string acceleration = "none";
+  std::string reorder = "none";
   // path tracer
   int spp = 64;
   std::uint64_t seed = 1;

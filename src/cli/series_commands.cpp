@@ -41,6 +41,10 @@ void write_series_report(JsonWriter& w, const SeriesOperator& q) {
   w.value("bytes", q.bytes());
   w.value("dropped_energy", r.dropped_energy);
   w.value("dropped_relative", r.dropped_relative);
+  w.value("reorder", series_reorder_name(r.reorder));
+  w.value("bandwidth_before", r.bandwidth_before);
+  w.value("bandwidth_after", r.bandwidth_after);
+  w.value("reorder_seconds", r.reorder_seconds);
 }
 
 // Parses NAME=R,G,B.
@@ -60,9 +64,10 @@ std::pair<std::string, Rgb> parse_emission(const std::string& text) {
 
 SeriesOptions series_options(int order, double tolerance, double drop, const std::string& precision,
                              const std::string& output, const std::string& basis,
-                             const std::string& acceleration) {
+                             const std::string& acceleration, const std::string& reorder) {
   SeriesOptions o;
   if (acceleration == "chebyshev") o.acceleration = SeriesAcceleration::kChebyshev;
+  o.reorder = reorder == "rcm" ? SeriesReorder::kRcm : SeriesReorder::kNone;
   o.order = order;
   o.tolerance = tolerance;
   o.drop = drop;
@@ -94,7 +99,7 @@ Image product_image(const SeriesOperator& q, const std::vector<float>& out, cons
 
 struct PrecomputeFlags {
   std::string scene, output, report, output_kind = "view", precision = "float", basis = "patch",
-      acceleration = "none";
+      acceleration = "none", reorder = "none";
   int order = -1;
   double tolerance = 1e-3, drop = 0.0;
   SystemFlags system;
@@ -107,7 +112,7 @@ int run_precompute(const PrecomputeFlags& f) {
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
   print_warnings(*sys);
   SeriesOptions o = series_options(f.order, f.tolerance, f.drop, f.precision, f.output_kind, f.basis,
-                                   f.acceleration);
+                                   f.acceleration, f.reorder);
   std::unique_ptr<Gather> gather;
   if (o.output == SeriesOutput::kView)
     gather = std::make_unique<Gather>(build_gather(sys->scene.camera, sys->patches, sys->scene.materials,
@@ -230,7 +235,8 @@ int render_series(const RenderFlags& f) {
   go.specular = !f.system.classic;
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
                                sys->transport, go);
-  SeriesOptions o = series_options(f.order, f.tolerance, 0.0, "float", "view", "patch", f.acceleration);
+  SeriesOptions o = series_options(f.order, f.tolerance, 0.0, "float", "view", "patch", f.acceleration,
+                                   f.reorder);
   SeriesOperator q = precompute_series(sys->transport, sys->patches, sys->scene, &gather, o);
   std::vector<float> e = q.column_emission();
   std::vector<float> out(3 * static_cast<std::size_t>(q.rows()));
@@ -289,6 +295,11 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
                   "Plain power series, or the Chebyshev polynomial (fewer terms near albedo 1; "
                   "needs a real spectrum, as diffuse scenes have)")
       ->check(CLI::IsMember({"none", "chebyshev"}))
+      ->capture_default_str();
+  cmd->add_option("--reorder", f->reorder,
+                  "Number the unknowns as built, or by reverse Cuthill-McKee for the locality of "
+                  "the precompute's products (the same operator)")
+      ->check(CLI::IsMember({"none", "rcm"}))
       ->capture_default_str();
   cmd->add_option("--report", f->report, "Write a JSON report here");
   f->system.add(*cmd);

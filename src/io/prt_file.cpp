@@ -68,7 +68,11 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
       .value("spectral_radius", r.spectral_radius)
       .value("dropped_energy", r.dropped_energy)
       .value("dropped_relative", r.dropped_relative)
-      .value("seconds", r.seconds);
+      .value("seconds", r.seconds)
+      .value("reorder", series_reorder_name(r.reorder))
+      .value("bandwidth_before", r.bandwidth_before)
+      .value("bandwidth_after", r.bandwidth_after)
+      .value("reorder_seconds", r.reorder_seconds);
   w.begin_array("term_norms");
   for (double x : r.term_norms) w.element(x);
   w.end_array().end_object();
@@ -154,6 +158,18 @@ std::int64_t count(const JsonValue& v, const char* key, const std::string& name,
   double x = number(v, key, name);
   if (!(x >= 0.0 && x <= limit && x == std::floor(x))) refuse(name, std::string("header field '") + key + "' is out of range");
   return static_cast<std::int64_t>(x);
+}
+
+// How the precompute numbered T's unknowns: absent from files written before the reordering
+// existed (they were made without one), so optional; the file's data do not depend on it.
+void read_reorder_report(const JsonValue& r, const std::string& name, SeriesReport& report) {
+  if (!r.find("reorder")) return;
+  const std::string& reorder = member(r, "reorder", JsonValue::Kind::kString, name).string;
+  if (reorder != "none" && reorder != "rcm") refuse(name, "unknown reorder '" + reorder + "'");
+  report.reorder = reorder == "rcm" ? SeriesReorder::kRcm : SeriesReorder::kNone;
+  report.bandwidth_before = count(r, "bandwidth_before", name, 9e15);
+  report.bandwidth_after = count(r, "bandwidth_after", name, 9e15);
+  report.reorder_seconds = number(r, "reorder_seconds", name);
 }
 
 }  // namespace
@@ -268,6 +284,7 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   }
   for (const auto& x : member(r, "term_norms", JsonValue::Kind::kArray, name).array)
     q.report.term_norms.push_back(x.is(JsonValue::Kind::kNumber) ? x.number : INFINITY);
+  read_reorder_report(r, name, q.report);
 
   // Sections: in bounds, aligned, of the sizes the counts imply.
   const std::size_t value_size = q.precision == ValuePrecision::kFloat ? 4 : 2;

@@ -8,6 +8,7 @@
 
 #include "polyrad/half.h"
 #include "polyrad/progress.h"
+#include "polyrad/reorder.h"
 #include "polyrad/solver.h"
 
 namespace polyrad {
@@ -15,6 +16,7 @@ namespace polyrad {
 const char* series_output_name(SeriesOutput o) { return o == SeriesOutput::kView ? "view" : "solution"; }
 const char* value_precision_name(ValuePrecision p) { return p == ValuePrecision::kFloat ? "float" : "half"; }
 const char* series_basis_name(SeriesBasis b) { return b == SeriesBasis::kPatch ? "patch" : "object"; }
+const char* series_reorder_name(SeriesReorder r) { return r == SeriesReorder::kNone ? "none" : "rcm"; }
 
 namespace {
 
@@ -140,6 +142,44 @@ Terms choose_chebyshev_order(const TransportOperator& t, const Field& s, const S
   return terms;
 }
 
+// P_K S for one block of columns by the running sum u_K = sum_{n<=K} T^n S (eq. 10), or the
+// Chebyshev polynomial's x_K: `order` products with op, which is T or its renumbered copy.
+template <typename Op>
+FieldBlock block_polynomial(const Op& op, FieldBlock term, int order, bool chebyshev, double rho,
+                            Progress& progress) {
+  if (chebyshev) {
+    ChebyshevIteration<FieldBlock, Op> cheb(op, term, rho);
+    for (int n = 1; n <= order; ++n) {
+      cheb.step();
+      progress.advance();
+    }
+    return cheb.x();
+  }
+  FieldBlock acc = term, next;
+  for (int n = 1; n <= order; ++n) {
+    op.apply(term, next);
+    term.swap(next);
+    acc += term;
+    progress.advance();
+  }
+  return acc;
+}
+
+// The numbering of the block products (SeriesOptions::reorder): null for T's own, else T's
+// renumbered copy. Records the ordering's cost and T's bandwidth before and after.
+std::unique_ptr<PermutedTransport> reordered_transport(const TransportOperator& t,
+                                                       SeriesReorder reorder, SeriesReport& rep) {
+  auto t0 = std::chrono::steady_clock::now();
+  std::unique_ptr<PermutedTransport> permuted;
+  if (reorder == SeriesReorder::kRcm)
+    permuted = std::make_unique<PermutedTransport>(t, reverse_cuthill_mckee(t.weights()));
+  rep.reorder = reorder;
+  rep.reorder_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  rep.bandwidth_before = bandwidth(t.weights());
+  rep.bandwidth_after = permuted ? bandwidth(permuted->weights()) : rep.bandwidth_before;
+  return permuted;
+}
+
 }  // namespace
 
 std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene,
@@ -176,6 +216,8 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
   }
   const auto cols = static_cast<std::int64_t>(q.columns.size());
   if (cols == 0) throw InputError("the scene has no emitting object: nothing to precompute");
+  std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);
+  auto unknown = [&](PatchId p) { return permuted ? permuted->permutation().position[p] : p; };
 
   // Which patches each column lights.
   std::vector<std::vector<PatchId>> lit(cols);
@@ -206,27 +248,14 @@ SeriesOperator precompute_series(const TransportOperator& t, const PatchSet& pat
 
   for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
     const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
-    FieldBlock term = FieldBlock::Zero(t.size(), 3 * width), next, acc;
+    FieldBlock term = FieldBlock::Zero(t.size(), 3 * width);
     for (int c = 0; c < width; ++c)
-      for (PatchId p : lit[c0 + c]) term.block(p, 3 * c, 1, 3).setOnes();
+      for (PatchId p : lit[c0 + c]) term.block(unknown(p), 3 * c, 1, 3).setOnes();
     progress.advance();
-    if (chebyshev) {
-      ChebyshevIteration<FieldBlock> cheb(t, term, rho);
-      for (int n = 1; n <= order; ++n) {
-        cheb.step();
-        progress.advance();
-      }
-      acc = cheb.x();
-    } else {
-      // P_K S for these columns by the running sum, u_K = sum_{n<=K} T^n S (eq. 10).
-      acc = term;
-      for (int n = 1; n <= order; ++n) {
-        t.apply(term, next);
-        term.swap(next);
-        acc += term;
-        progress.advance();
-      }
-    }
+    // In the products' numbering; back in T's before the gather and the rows.
+    FieldBlock acc = permuted ? permuted->to_original(block_polynomial(*permuted, std::move(term), order,
+                                                                       chebyshev, rho, progress))
+                              : block_polynomial(t, std::move(term), order, chebyshev, rho, progress);
     // The rows: the unknowns themselves, or the pixels through the gather.
     FieldBlock out;
     if (view) {

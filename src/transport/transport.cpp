@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <map>
 
+#include "polyrad/error.h"
 #include "polyrad/specular_transfer.h"
 
 namespace polyrad {
@@ -253,8 +254,13 @@ void TransportOperator::apply(const Field& in, Field& out) const {
   if (on_the_fly_) recompute_link_rows(in.data(), out.data(), 3, false, nullptr);
 }
 
-void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
-  const Eigen::Index rows = size();
+namespace {
+
+// out = diag(colour) W in over W's stored rows, for a block of fields: T's product on blocks
+// and its permuted copy's. Each row sums its entries in stored order.
+void apply_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& row_colour,
+                const FieldBlock& in, FieldBlock& out) {
+  const auto rows = static_cast<Eigen::Index>(weights.rows);
   const Eigen::Index width = in.cols();
   out.resize(rows, width);
 #pragma omp parallel
@@ -263,17 +269,55 @@ void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
 #pragma omp for schedule(dynamic, 64)
     for (Eigen::Index r = 0; r < rows; ++r) {
       std::fill(acc.begin(), acc.end(), 0.0);
-      for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k) {
-        const double w = weights_.value[k];
-        const double* x = in.data() + width * static_cast<Eigen::Index>(weights_.column[k]);
+      for (auto k = weights.start[r]; k < weights.start[r + 1]; ++k) {
+        const double w = weights.value[k];
+        const double* x = in.data() + width * static_cast<Eigen::Index>(weights.column[k]);
         for (Eigen::Index c = 0; c < width; ++c) acc[c] += w * x[c];
       }
-      const auto& colour = row_colour_[r];
+      const auto& colour = row_colour[r];
       double* y = out.data() + width * r;
       for (Eigen::Index c = 0; c < width; ++c) y[c] = colour[c % 3] * acc[c];
     }
   }
-  if (on_the_fly_) recompute_link_rows(in.data(), out.data(), width, false, nullptr);
+}
+
+}  // namespace
+
+void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
+  apply_rows(weights_, row_colour_, in, out);
+  if (on_the_fly_) recompute_link_rows(in.data(), out.data(), in.cols(), false, nullptr);
+}
+
+PermutedTransport::PermutedTransport(const TransportOperator& t, Permutation p)
+    : permutation_(std::move(p)) {
+  if (t.on_the_fly())
+    throw InputError("reordering needs T's stored rows; with --specular-on-the-fly its link rows "
+                     "are recomputed at every product (use --reorder none)");
+  const Csr<float>& w = t.weights();
+  POLYRAD_CHECK(permutation_.size() == w.rows);
+  weights_.rows = 0;
+  weights_.cols = w.cols;
+  weights_.column.reserve(w.column.size());
+  weights_.value.reserve(w.value.size());
+  for (std::int32_t old : permutation_.order) {
+    for (auto k = w.start[old]; k < w.start[old + 1]; ++k) {
+      weights_.column.push_back(permutation_.position[w.column[k]]);
+      weights_.value.push_back(w.value[k]);
+    }
+    weights_.push_row();
+    row_colour_.push_back(t.row_colour()[old]);
+  }
+}
+
+void PermutedTransport::apply(const FieldBlock& in, FieldBlock& out) const {
+  apply_rows(weights_, row_colour_, in, out);
+}
+
+FieldBlock PermutedTransport::to_original(const FieldBlock& x) const {
+  FieldBlock u(x.rows(), x.cols());
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index n = 0; n < x.rows(); ++n) u.row(permutation_.order[n]) = x.row(n);
+  return u;
 }
 
 void TransportOperator::apply_channel(const double* in, double* out, int channel) const {
