@@ -192,7 +192,11 @@ TEST(Cli, ReorderFlagIsReportedAndBadValuesAreExitTwo) {
   for (const std::string& args :
        {"precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder metis",
         "precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder",
-        "render " + scene + " --method series -o " + (dir / "x.pfm").string() + " --reorder RCM"}) {
+        "render " + scene + " --method series -o " + (dir / "x.pfm").string() + " --reorder RCM",
+        // A valid value the system cannot honour: refused before the scene is built.
+        "precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder rcm --specular-on-the-fly",
+        "render " + scene + " --method series -o " + (dir / "x.pfm").string() +
+            " --reorder rcm --specular-on-the-fly"}) {
     CliRun bad = run(args);
     EXPECT_EQ(bad.code, 2) << args << "\n" << bad.err;
     EXPECT_EQ(lines(bad.err), 1u) << bad.err;

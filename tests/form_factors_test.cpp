@@ -117,6 +117,32 @@ TEST(FormFactors, ReciprocityOnTheCornellBox) {
   EXPECT_GT(checked, 100000);
 }
 
+TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
+  // compute_form_factors takes whole quads' rules from a per-patch cache; pair_area_form_factor
+  // builds each pair's rule itself. With the same pair key they must agree to the bit.
+  Scene scene = load_scene(test::scene_path("cornell-box"));
+  for (auto& object : scene.objects) object.patch_size = 100;
+  PatchSet ps = mesh_scene(scene);
+  RayCaster caster(ps);
+  const FormFactorOptions o;
+  FormFactors ff = compute_form_factors(ps, caster, o);
+  const std::vector<double> exposed = exposed_areas(ps, caster, o.exposure_points, o.exposure_refined);
+  const auto n = static_cast<PatchId>(ps.size());
+  long long checked = 0;
+  for (PatchId i = 0; i < n; ++i)
+    for (PatchId j = i + 1; j < n; ++j) {
+      const double stored = ff.at(i, j);
+      if (stored <= 0.0) continue;
+      const PatchId a = ps[i].area <= ps[j].area ? i : j, b = a == i ? j : i;
+      const std::uint64_t key = static_cast<std::uint64_t>(i) * static_cast<std::uint64_t>(n) + j;
+      const double g =
+          pair_area_form_factor(ps[a], ps[b], &caster, o, key, nullptr, exposed[a] / ps[a].area);
+      EXPECT_EQ(static_cast<float>(g / exposed[i]), static_cast<float>(stored)) << i << ", " << j;
+      ++checked;
+    }
+  EXPECT_GT(checked, 1000);
+}
+
 TEST(FormFactors, SameNumbersOnOneOrTwoThreads) {
   auto build = [](int threads) {
     omp_set_num_threads(threads);

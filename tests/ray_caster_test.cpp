@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "polyrad/sampling.h"
+
 #include "test_support.h"
 
 namespace polyrad {
@@ -52,6 +54,29 @@ TEST(RayCaster, OcclusionRespectsTheSegment) {
   EXPECT_FALSE(rc.segment_occluded(Vec3(0.2, 0, 0.2), Vec3(0.2, 1, 0.2)));
   EXPECT_TRUE(rc.occluded(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0)));
   EXPECT_FALSE(rc.occluded(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0), 0.0, 0.5));
+}
+
+TEST(RayCaster, FacingSegmentsCastTheSameRayAsSegmentOccluded) {
+  // A floor facing up, a ceiling facing down and a blocker between: the form factors' fast path
+  // (origin lifted once, no side tests) must block exactly the segments segment_occluded does.
+  PatchSet ps = test::make_patch_set(
+      {test::make_quad({0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}),
+       test::make_quad({0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}),
+       test::make_quad({0.3, 0.5, 0.3}, {0.3, 0.5, 0.7}, {0.7, 0.5, 0.7}, {0.7, 0.5, 0.3})});
+  RayCaster rc(ps);
+  Rng rng(7);
+  int blocked = 0, open = 0;
+  for (int s = 0; s < 2000; ++s) {
+    const Vec3 x(rng.uniform(), 0.0, rng.uniform()), y(rng.uniform(), 1.0, rng.uniform());
+    const bool expected = rc.segment_occluded(x, ps[0], y, ps[1]);
+    EXPECT_EQ(rc.facing_segment_occluded(rc.lifted_front(x, ps[0]), ps[0], y, ps[1],
+                                         (y - x).squaredNorm()),
+              expected)
+        << s;
+    (expected ? blocked : open) += 1;
+  }
+  EXPECT_GT(blocked, 100);
+  EXPECT_GT(open, 100);
 }
 
 }  // namespace

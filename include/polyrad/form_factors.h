@@ -92,7 +92,8 @@ std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& cast
                                   int refined_points);
 
 // The exact form factor from a point x with normal n to a polygon that lies entirely in front
-// of x's tangent plane and faces x (Lambert's formula).
+// of x's tangent plane and faces x (Lambert's formula). At most 8 corners (std::invalid_argument
+// beyond: the formula runs on two packets of four edges).
 double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon);
 
 // The part of a convex polygon on the positive side of the plane through `origin` with normal

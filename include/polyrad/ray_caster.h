@@ -54,7 +54,9 @@ class RayCaster {
   // The same for a segment whose ends face each other: it leaves pa's front side and meets pb's
   // front side, as wherever the form-factor kernel is positive, so each end is lifted along its
   // normal without a side test. a_lifted = lifted_front(a, pa), computed once for a fan of
-  // segments from one point; length2 = |b - a|^2, which the caller already has.
+  // segments from one point; length2 = |b - a|^2, which the caller already has. The same ray
+  // as segment_occluded's; the shortest-segment test compares squares, so a segment within an
+  // ulp of that length may be cast here and not there.
   Vec3 lifted_front(const Vec3& x, const Patch& p) const { return x + lift(p) * p.normal; }
   bool facing_segment_occluded(const Vec3& a_lifted, const Patch& pa, const Vec3& b,
                                const Patch& pb, double length2) const;

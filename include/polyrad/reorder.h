@@ -15,7 +15,7 @@
 //   std::int64_t before = bandwidth(t.weights()), after = bandwidth(t.weights(), p);
 //
 // Cost: a few breadth-first searches, O(nnz) each, and one sort of each node's newly reached
-// neighbours; 2 nnz + 4 n ints of memory.
+// neighbours; the symmetrised pattern (2 nnz ints) and a few arrays of n ints.
 #pragma once
 
 #include <cstdint>

@@ -105,7 +105,16 @@ struct PrecomputeFlags {
   SystemFlags system;
 };
 
+// Before the scene is built: --reorder rcm renumbers T's stored link rows, and on the fly there
+// are none (precompute_series would refuse it only after the whole build).
+void check_reorder(const std::string& reorder, const SystemFlags& system) {
+  if (reorder == "rcm" && system.on_the_fly)
+    throw InputError("--reorder rcm renumbers T's stored rows; --specular-on-the-fly stores none "
+                     "(use --reorder none)");
+}
+
 int run_precompute(const PrecomputeFlags& f) {
+  check_reorder(f.reorder, f.system);
   check_output_path(f.output, "operator file");
   if (!f.report.empty()) check_output_path(f.report, "report");
   auto t0 = std::chrono::steady_clock::now();
@@ -222,6 +231,7 @@ int run_relight(const RelightFlags& f) {
 // ---- render --method series ------------------------------------------------------------------
 
 int render_series(const RenderFlags& f) {
+  check_reorder(f.reorder, f.system);
   check_image_path(f.output);
   if (!f.report.empty()) check_output_path(f.report, "report");
   if (!f.patches_csv.empty()) throw InputError("--patches needs --method iterative (a view-mode series has no patch values)");
@@ -298,7 +308,8 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--reorder", f->reorder,
                   "Number the unknowns as built, or by reverse Cuthill-McKee for the locality of "
-                  "the precompute's products (the same operator)")
+                  "the precompute's products (the same operator; a second copy of T while it "
+                  "runs)")
       ->check(CLI::IsMember({"none", "rcm"}))
       ->capture_default_str();
   cmd->add_option("--report", f->report, "Write a JSON report here");

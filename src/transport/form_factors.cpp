@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "polyrad/brdf.h"
+#include "polyrad/error.h"
 #include "polyrad/progress.h"
 #include "polyrad/sampling.h"
 
@@ -125,10 +126,11 @@ inline double contour_form_factor(const Vec3& x, const Vec3& n, const ContourEdg
     const Lanes cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
     const Lanes cn = (cx * cx + cy * cy + cz * cz).sqrt();
     const Lanes gamma = edge_angles(cn, ax * bx + ay * by + az * bz);
-    // Lanes with cn = 0 (unused, or x on the edge's line) add nothing; the floor keeps their
-    // division finite.
-    const Lanes term = gamma * (n.x() * cx + n.y() * cy + n.z() * cz) / cn.max(1e-300);
-    sum += (cn > 0.0).select(term, Lanes::Zero()).sum();
+    // Lanes with cn = 0 (unused, or x on the edge's line) add nothing; dividing them by 1
+    // keeps them finite.
+    const auto some = cn > 0.0;
+    const Lanes term = gamma * (n.x() * cx + n.y() * cy + n.z() * cz) / some.select(cn, 1.0);
+    sum += some.select(term, Lanes::Zero()).sum();
   }
   return std::abs(sum) * (0.5 / kPi);
 }
@@ -230,6 +232,7 @@ class WholeQuadRules {
  public:
   WholeQuadRules(const PatchSet& patches, const FormFactorOptions& o) {
     for (int n : {o.near_points, o.mid_points, o.far_points}) {
+      POLYRAD_CHECK(n >= 1 && n < static_cast<int>(rules_.size()));  // gauss_legendre's range
       if (!rules_[n].empty()) continue;
       rules_[n].resize(patches.size() * static_cast<std::size_t>(n * n));
       std::vector<QuadraturePoint> rule;
@@ -261,8 +264,10 @@ class PolygonSampler {
     }
     for (int k = 0; k < count_; ++k) cumulative_[k] /= total;
     // The reciprocal of each triangle's share: sample() multiplies (no division per ray).
-    for (int k = 0; k < count_; ++k)
-      inverse_share_[k] = 1.0 / (cumulative_[k] - (k == 0 ? 0.0 : cumulative_[k - 1]));
+    for (int k = 0; k < count_; ++k) {
+      const double share = cumulative_[k] - (k == 0 ? 0.0 : cumulative_[k - 1]);
+      inverse_share_[k] = share > 0.0 ? 1.0 / share : 0.0;  // an empty triangle: its first corner
+    }
   }
   // u0 selects the triangle (and is reused inside it), u1 is the second coordinate.
   Vec3 sample(double u0, double u1) const {
@@ -307,8 +312,11 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
   clip_into(Polygon(b), a.centroid, a.normal, b_front);
   if (a_front.size() < 3 || b_front.size() < 3) return 0.0;
 
+  // All four corners: a quad cut off at one corner by b's plane (within rounding of it) keeps
+  // four corners, and its cached rule would cover the part behind the plane.
   bool a_whole_quad = !a.is_triangle() && a_front.size() == 4 && a_front[0] == a.corner[0] &&
-                      a_front[1] == a.corner[1] && a_front[2] == a.corner[2];
+                      a_front[1] == a.corner[1] && a_front[2] == a.corner[2] &&
+                      a_front[3] == a.corner[3];
   const int n = points_for(a, b, larger_diameter, options);
   const int depth = n == options.near_points ? options.near_depth : 0;
   std::span<const QuadraturePoint> points;
@@ -351,7 +359,7 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
           Vec3 y = target.sample((s + rng.uniform32()) / m, rng.uniform32());
           Vec3 d = y - x;
           double r2 = d.squaredNorm();
-          if (r2 <= 0.0) continue;
+          if (!(r2 > 0.0)) continue;  // also a NaN from a degenerate clipped polygon
           double k = std::max(0.0, d.dot(a.normal)) * std::max(0.0, -d.dot(b.normal)) / (r2 * r2);
           kernel_sum += k;
           ys[c] = y;
