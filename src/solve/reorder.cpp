@@ -162,20 +162,27 @@ Permutation reverse_cuthill_mckee(const Csr<float>& m) {
   return Permutation::from_order(std::move(order));
 }
 
-std::int64_t bandwidth(const Csr<float>& m) {
-  std::int64_t band = 0;
+namespace {
+
+// max |number(row) - number(column)| over m's stored entries.
+template <typename Number>
+std::int64_t band(const Csr<float>& m, Number number) {
+  std::int64_t b = 0;
   for (std::int64_t r = 0; r < m.rows; ++r)
-    for (auto k = m.start[r]; k < m.start[r + 1]; ++k) band = std::max(band, std::abs(r - m.column[k]));
-  return band;
+    for (auto k = m.start[r]; k < m.start[r + 1]; ++k)
+      b = std::max<std::int64_t>(b, std::abs(number(r) - number(m.column[k])));
+  return b;
+}
+
+}  // namespace
+
+std::int64_t bandwidth(const Csr<float>& m) {
+  return band(m, [](std::int64_t i) { return i; });
 }
 
 std::int64_t bandwidth(const Csr<float>& m, const Permutation& p) {
   POLYRAD_CHECK(p.size() == m.rows && m.rows == m.cols);
-  std::int64_t band = 0;
-  for (std::int64_t r = 0; r < m.rows; ++r)
-    for (auto k = m.start[r]; k < m.start[r + 1]; ++k)
-      band = std::max<std::int64_t>(band, std::abs(p.position[r] - p.position[m.column[k]]));
-  return band;
+  return band(m, [&](std::int64_t i) { return static_cast<std::int64_t>(p.position[i]); });
 }
 
 }  // namespace polyrad
