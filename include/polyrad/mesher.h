@@ -47,8 +47,8 @@ struct Patch {
   std::array<double, 4> corner_weights(double u, double v) const;
   // A point for the unit-square sample s, with `density` set to the area density of the map
   // relative to uniform (1 for triangles and parallelograms): weight integrands by it to
-  // integrate over area exactly.
-  Vec3 sample(const Vec2& s, double* density) const;
+  // integrate over area exactly. uv, when given, receives the point's parameters (as point()).
+  Vec3 sample(const Vec2& s, double* density, Vec2* uv = nullptr) const;
   // The largest distance between two corners.
   double diameter() const;
 };

@@ -38,6 +38,7 @@
 #include "polyrad/brdf.h"
 #include "polyrad/camera.h"
 #include "polyrad/image.h"
+#include "polyrad/light_sampling.h"
 #include "polyrad/mesher.h"
 #include "polyrad/ray_caster.h"
 #include "polyrad/sampling.h"
@@ -91,19 +92,13 @@ class PathTracer {
 
   // Total emitted power weight sum(luminance(emission) * area) the light sampler draws from;
   // 0 when the scene has no emitter.
-  double emitter_weight() const { return emitter_total_; }
+  double emitter_weight() const { return lights_.total_weight(); }
 
  private:
-  // Density with respect to area of next-event estimation choosing point y on patch p.
-  double light_area_pdf(PatchId p, const Vec3& y) const;
-
   const PatchSet& patches_;
   const std::vector<Material>& materials_;
   const RayCaster& caster_;
-  std::vector<PatchId> emitters_;    // patches that emit
-  std::vector<double> emitter_cdf_;  // cumulative selection probability, last = 1
-  std::vector<double> select_pdf_;   // per patch: probability of being chosen (0: not an emitter)
-  double emitter_total_ = 0.0;
+  LightSampler lights_;  // next-event estimation, by emitted power
 };
 
 }  // namespace polyrad

@@ -159,13 +159,15 @@ std::array<double, 4> Patch::corner_weights(double u, double v) const {
   return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
 }
 
-Vec3 Patch::sample(const Vec2& s, double* density) const {
+Vec3 Patch::sample(const Vec2& s, double* density, Vec2* uv) const {
   if (is_triangle()) {
     double r = std::sqrt(s.x());
     *density = 1.0;
+    if (uv) *uv = Vec2(r * (1 - s.y()), r * s.y());
     return (1 - r) * corner[0] + r * (1 - s.y()) * corner[1] + r * s.y() * corner[2];
   }
   double u = s.x(), v = s.y();
+  if (uv) *uv = s;
   Vec3 du = (1 - v) * (corner[1] - corner[0]) + v * (corner[2] - corner[3]);
   Vec3 dv = (1 - u) * (corner[3] - corner[0]) + u * (corner[2] - corner[1]);
   *density = du.cross(dv).norm() / area;

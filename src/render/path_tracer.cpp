@@ -13,70 +13,25 @@ namespace polyrad {
 
 namespace {
 
-// Power heuristic with exponent 2 (Veach's thesis, eq. 9.13) for one sample of each strategy:
-// the weight of the strategy whose density is `a`, the other's being `b`.
-double power_heuristic(double a, double b) {
-  double a2 = a * a, b2 = b * b;
-  if (!(a2 + b2 > 0.0)) return 0.0;
-  if (std::isinf(a2)) return 1.0;
-  return a2 / (a2 + b2);
-}
-
-// The bilinear map of Patch::point and its two tangents at (u, v).
-void bilinear_tangents(const Patch& p, double u, double v, Vec3* du, Vec3* dv) {
-  *du = (1 - v) * (p.corner[1] - p.corner[0]) + v * (p.corner[2] - p.corner[3]);
-  *dv = (1 - u) * (p.corner[3] - p.corner[0]) + u * (p.corner[2] - p.corner[1]);
+// The path tracer draws lights by emitted power: luminance(emission) * area.
+std::vector<double> emitted_power(const PatchSet& patches, const std::vector<Material>& materials) {
+  std::vector<double> weight(patches.size(), 0.0);
+  for (size_t p = 0; p < patches.size(); ++p) {
+    const Patch& q = patches[p];
+    POLYRAD_CHECK(q.material >= 0 && q.material < static_cast<MaterialId>(materials.size()));
+    weight[p] = std::max(0.0, luminance(q.emission.max(0.0)) * q.area);
+  }
+  return weight;
 }
 
 }  // namespace
 
 PathTracer::PathTracer(const PatchSet& patches, const std::vector<Material>& materials,
                        const RayCaster& caster)
-    : patches_(patches), materials_(materials), caster_(caster) {
-  select_pdf_.assign(patches.size(), 0.0);
-  std::vector<double> weight;
-  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p) {
-    const Patch& q = patches[p];
-    POLYRAD_CHECK(q.material >= 0 && q.material < static_cast<MaterialId>(materials.size()));
-    double w = luminance(q.emission.max(0.0)) * q.area;
-    if (!(w > 0.0)) continue;
-    emitters_.push_back(p);
-    weight.push_back(w);
-    emitter_total_ += w;
-  }
-  double running = 0.0;
-  for (size_t e = 0; e < emitters_.size(); ++e) {
-    running += weight[e];
-    emitter_cdf_.push_back(running / emitter_total_);
-    select_pdf_[emitters_[e]] = weight[e] / emitter_total_;
-  }
-  if (!emitter_cdf_.empty()) emitter_cdf_.back() = 1.0;
-}
-
-double PathTracer::light_area_pdf(PatchId p, const Vec3& y) const {
-  const Patch& q = patches_[p];
-  double select = select_pdf_[p];
-  if (q.is_triangle()) return select / q.area;
-  // Patch::sample maps the unit square bilinearly, so its area density is 1 / |du x dv|, which
-  // varies over a quad that is not a parallelogram: find y's parameters (Gauss-Newton on the
-  // bilinear map, exact in one step for a parallelogram) and evaluate it there.
-  double u = 0.5, v = 0.5;
-  for (int it = 0; it < 4; ++it) {
-    Vec3 du, dv;
-    bilinear_tangents(q, u, v, &du, &dv);
-    Vec3 r = y - q.point(u, v);
-    double a = du.dot(du), b = du.dot(dv), c = dv.dot(dv);
-    double det = a * c - b * b;
-    if (!(det > 0.0)) break;
-    double ru = du.dot(r), rv = dv.dot(r);
-    u = std::clamp(u + (c * ru - b * rv) / det, 0.0, 1.0);
-    v = std::clamp(v + (a * rv - b * ru) / det, 0.0, 1.0);
-  }
-  Vec3 du, dv;
-  bilinear_tangents(q, u, v, &du, &dv);
-  double jacobian = du.cross(dv).norm();
-  return jacobian > 0.0 ? select / jacobian : 0.0;
-}
+    : patches_(patches),
+      materials_(materials),
+      caster_(caster),
+      lights_(patches, emitted_power(patches, materials)) {}
 
 Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
                          const PathTraceOptions& o, PathStats* stats) const {
@@ -88,7 +43,7 @@ Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
   PatchId from = -1;         // the patch the ray leaves (-1: the camera)
   bool delta_before = true;  // the camera ray counts emission fully, as a delta bounce does
   double bsdf_pdf = 0.0;     // solid-angle density of the BSDF sample that made this ray
-  const bool nee = o.next_event && !emitters_.empty();
+  const bool nee = o.next_event && !lights_.empty();
 
   for (int segments = 1;; ++segments) {
     Hit hit = from < 0 ? caster_.intersect(ray_origin, ray_dir)
@@ -100,11 +55,11 @@ Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
 
     // Emission met by the ray. After a non-delta bounce this path could also have come from
     // the light sample at the previous vertex, so it takes the BSDF strategy's MIS weight.
-    if (select_pdf_[hit.patch] > 0.0) {
+    if (lights_.select_pdf(hit.patch) > 0.0) {
       double w = 1.0;
       if (nee && !delta_before) {
         double cos_y = -ray_dir.dot(p.normal);
-        double light_pdf = light_area_pdf(hit.patch, x) * hit.t * hit.t / cos_y;
+        double light_pdf = lights_.area_pdf(hit.patch, x) * hit.t * hit.t / cos_y;
         w = power_heuristic(bsdf_pdf, light_pdf);
       }
       sum += beta * p.emission * w;
@@ -125,28 +80,23 @@ Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
     if (nee && smooth) {
       double u_select = rng.uniform();
       Vec2 u_point = rng.uniform2();
-      size_t e = static_cast<size_t>(
-          std::upper_bound(emitter_cdf_.begin(), emitter_cdf_.end(), u_select) -
-          emitter_cdf_.begin());
-      e = std::min(e, emitters_.size() - 1);
-      const PatchId lp = emitters_[e];
+      const LightSample ls = lights_.sample(u_select, u_point);
+      const PatchId lp = ls.patch;
       const Patch& light = patches_[lp];
-      double density = 1.0;
-      Vec3 y = light.sample(u_point, &density);
+      const Vec3& y = ls.point;
       Vec3 d = y - x;
       double dist2 = d.squaredNorm();
       double dist = std::sqrt(dist2);
       Vec3 wi = d / dist;
       double cos_x = wi.dot(p.normal), cos_y = -wi.dot(light.normal);
-      if (dist > 0.0 && cos_x > 0.0 && cos_y > 0.0 && density > 0.0) {
+      if (dist > 0.0 && cos_x > 0.0 && cos_y > 0.0 && ls.area_pdf > 0.0) {
         Vec3 wi_local = frame.to_local(wi);
         Rgb f = m.eval(wi_local, wo);
         if (f.maxCoeff() > 0.0) {
           ++local.rays;
           if (!caster_.segment_occluded(x, hit.patch, y, lp)) {
-            // Area density of y: P(patch) / (area * density), density being Patch::sample's
-            // map density relative to uniform; in solid angle times dist^2 / cos_y.
-            double light_pdf = select_pdf_[lp] / (light.area * density) * dist2 / cos_y;
+            // The area density of y in solid angle: times dist^2 / cos_y.
+            double light_pdf = ls.area_pdf * dist2 / cos_y;
             double w = power_heuristic(light_pdf, m.pdf(wi_local, wo));
             sum += beta * f * light.emission * (cos_x * w / light_pdf);
           }
