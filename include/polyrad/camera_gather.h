@@ -5,14 +5,18 @@
 //   diffuse part  B_i (flat) or B interpolated from the corners of i (smooth: each corner
 //                 averages the patches of the same object and orientation that share it);
 //   mirror part   s_i * L_{j->i}, j met by the reflected ray;
-//   glossy part   s_i * mean over a fixed set of lobe samples of beta * L_{j->i};
+//   glossy part   s_i * mean over a fixed set of lobe samples of beta * L_{j->i}, combined by
+//                 multiple importance with a fixed set of points on the lights (patches of
+//                 objects with an "emission" key, drawn by area): the lobe samples alone
+//                 rarely find a small lamp, so a rough surface under it comes out speckled;
 // with L_{j->i} = B_j + S_{j->i}. Pixels average a fixed grid of sub-pixel rays. Nothing here
 // depends on the values of u, so the view-mode precompute folds G into its operator.
 //
 //   Gather g = build_gather(scene.camera, patches, materials, caster, t, {});
 //   Image img = apply_gather(g, solution.u);
 //
-// Cost: pixels x sub-pixel rays x (1 + lobe samples) rays to build; memory 16 bytes per entry.
+// Cost: pixels x sub-pixel rays x (1 + lobe samples + light samples) rays to build; memory 16
+// bytes per entry.
 #pragma once
 
 #include <array>
@@ -31,6 +35,7 @@ struct GatherOptions {
   DiffuseMode diffuse = DiffuseMode::kSmooth;
   int pixel_grid = 2;       // sub-pixel rays per side (2: four rays a pixel)
   int lobe_samples = 16;    // fixed lobe samples of a glossy hit
+  int light_samples = 4;    // points on the lights per glossy hit (0: the lobe samples alone)
   bool specular = true;     // false: every material shows only its diffuse part
   std::uint64_t seed = 11;
 };

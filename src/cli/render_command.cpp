@@ -10,6 +10,16 @@
 
 namespace polyrad::cli {
 
+GatherOptions gather_options(const RenderFlags& f) {
+  GatherOptions go;
+  go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
+  go.pixel_grid = f.pixel_grid;
+  go.lobe_samples = f.lobe_samples;
+  go.light_samples = f.light_samples;
+  go.specular = !f.system.classic;
+  return go;
+}
+
 int render_iterative(const RenderFlags& f) {
   check_image_path(f.output);
   if (!f.report.empty()) check_output_path(f.report, "report");
@@ -33,13 +43,8 @@ int render_iterative(const RenderFlags& f) {
     throw NumericalError(result.message.empty() ? "the solution is not finite" : result.message);
   if (result.status == SolveStatus::kNotConverged) throw NumericalError(result.message);
 
-  GatherOptions go;
-  go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
-  go.pixel_grid = f.pixel_grid;
-  go.lobe_samples = f.lobe_samples;
-  go.specular = !f.system.classic;
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                               sys->transport, go);
+                               sys->transport, gather_options(f));
   auto tg = std::chrono::steady_clock::now();
   Image image = apply_gather(gather, result.u);
   double apply_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tg).count();
@@ -126,6 +131,11 @@ void add_render_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--lobe-samples", flags->lobe_samples, "Gather samples of a glossy lobe")
       ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  cmd->add_option("--light-samples", flags->light_samples,
+                  "Gather points on the lights per glossy hit, weighted against the lobe samples "
+                  "(0: lobe samples alone)")
+      ->check(CLI::Range(0, 4096))
       ->capture_default_str();
   cmd->add_option("--exposure", flags->exposure, "Exposure of the .png tonemap")
       ->check(CLI::PositiveNumber)

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cli_common.h"
+#include "polyrad/camera_gather.h"
 
 namespace polyrad::cli {
 
@@ -25,9 +26,13 @@ struct RenderFlags {
   std::string diffuse = "smooth";
   int pixel_grid = 2;
   int lobe_samples = 16;
+  int light_samples = 4;
   double exposure = 1.0;
   SystemFlags system;
 };
+
+// The camera gather's options from the flags (iterative and series).
+GatherOptions gather_options(const RenderFlags& f);
 
 // One per method; each returns an exit code and writes its outputs only on success.
 int render_iterative(const RenderFlags& f);

@@ -238,13 +238,8 @@ int render_series(const RenderFlags& f) {
   auto t0 = std::chrono::steady_clock::now();
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
   print_warnings(*sys);
-  GatherOptions go;
-  go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
-  go.pixel_grid = f.pixel_grid;
-  go.lobe_samples = f.lobe_samples;
-  go.specular = !f.system.classic;
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                               sys->transport, go);
+                               sys->transport, gather_options(f));
   SeriesOptions o = series_options(f.order, f.tolerance, 0.0, "float", "view", "patch", f.acceleration,
                                    f.reorder);
   SeriesOperator q = precompute_series(sys->transport, sys->patches, sys->scene, &gather, o);

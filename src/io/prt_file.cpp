@@ -47,6 +47,7 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
       .value("diffuse", q.gather.diffuse == DiffuseMode::kSmooth ? "smooth" : "flat")
       .value("pixel_grid", q.gather.pixel_grid)
       .value("lobe_samples", q.gather.lobe_samples)
+      .value("light_samples", q.gather.light_samples)
       .value("specular", q.gather.specular)
       .value("seed", static_cast<long long>(q.gather.seed))
       .end_object();
@@ -248,6 +249,8 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   q.gather.diffuse = member(g, "diffuse", JsonValue::Kind::kString, name).string == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
   q.gather.pixel_grid = static_cast<int>(count(g, "pixel_grid", name, 16));
   q.gather.lobe_samples = static_cast<int>(count(g, "lobe_samples", name, 4096));
+  // Files written before the gather sampled the lights have no count: they sampled none.
+  q.gather.light_samples = g.find("light_samples") ? static_cast<int>(count(g, "light_samples", name, 4096)) : 0;
   q.gather.specular = member(g, "specular", JsonValue::Kind::kBool, name).boolean;
   q.gather.seed = static_cast<std::uint64_t>(count(g, "seed", name, 9e15));
   // Patch indices are ints, and link_start has num_patches + 1 entries: however large the file,

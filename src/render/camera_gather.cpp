@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "polyrad/brdf.h"
+#include "polyrad/light_sampling.h"
 #include "polyrad/progress.h"
 #include "polyrad/sampling.h"
 
@@ -72,13 +73,22 @@ Rgbf scaled(const Rgb& c, double s) {
   return {static_cast<float>(c[0] * s), static_cast<float>(c[1] * s), static_cast<float>(c[2] * s)};
 }
 
+// The gather draws lights by area over the patches of the scene's named lights: relighting may
+// give any of them any emission, so the choice must not depend on the scene's values.
+std::vector<double> light_areas(const PatchSet& patches) {
+  std::vector<double> weight(patches.size(), 0.0);
+  for (size_t p = 0; p < patches.size(); ++p)
+    if (patches[p].emitter) weight[p] = patches[p].area;
+  return weight;
+}
+
 class PixelGatherer {
  public:
   PixelGatherer(const Camera& camera, const PatchSet& patches, const std::vector<Material>& materials,
                 const RayCaster& caster, const UnknownLayout& t, const GatherOptions& o,
-                const CornerAverages& corners)
+                const CornerAverages& corners, const LightSampler& lights)
       : camera_(camera), patches_(patches), materials_(materials), caster_(caster), t_(t), o_(o),
-        corners_(corners) {}
+        corners_(corners), lights_(lights) {}
 
   // The terms of pixel (x, y); returns the number of rays cast.
   long long gather(int x, int y, std::vector<Term>& terms) const {
@@ -92,46 +102,104 @@ class PixelGatherer {
         ++rays;
         Hit hit = caster_.intersect(ray.origin, ray.direction);
         if (!hit.valid() || !hit.front) continue;
-        add_diffuse(hit, Rgbf{float(share), float(share), float(share)}, terms);
-        if (o_.specular)
-          rays += add_specular(hit, ray, share, static_cast<std::uint64_t>(y) * camera_.width + x,
-                               a * n + b, terms);
+        add_diffuse(hit.patch, hit.u, hit.v, Rgbf{float(share), float(share), float(share)}, terms);
+        if (!o_.specular) continue;
+        const Material& m = materials_[patches_[hit.patch].material];
+        if (!m.has_lobe()) continue;
+        Shading sh{hit.patch, m, Frame::from_normal(patches_[hit.patch].normal), Vec3::Zero(),
+                   Vec3::Zero(), share};
+        sh.x = ray.origin + hit.t * ray.direction;
+        sh.wo = sh.frame.to_local(-ray.direction);
+        Rng rng(o_.seed, static_cast<std::uint64_t>(y) * camera_.width + x, a * n + b);
+        rays += add_lobe_samples(sh, rng, terms);
+        rays += add_light_samples(sh, rng, terms);
       }
     return rays;
   }
 
  private:
-  void add_diffuse(const Hit& hit, const Rgbf& w, std::vector<Term>& terms) const {
-    if (o_.diffuse == DiffuseMode::kSmooth) corners_.add(hit.patch, hit.u, hit.v, w, terms);
-    else terms.push_back({hit.patch, w});
+  // A primary hit whose material has a lobe.
+  struct Shading {
+    PatchId i;
+    const Material& m;
+    Frame frame;
+    Vec3 x, wo;    // the point, and the direction to the camera (local frame)
+    double share;  // the sub-pixel ray's share of the pixel
+  };
+
+  bool light_sampled(const Material& m) const {
+    return o_.light_samples > 0 && !lights_.empty() && !m.is_delta();
+  }
+  int lobe_count(const Material& m) const {
+    if (m.is_delta()) return 1;
+    int side = std::max(1, static_cast<int>(std::lround(std::sqrt(o_.lobe_samples))));
+    return side * side;
   }
 
-  // Radiance arriving at i from the patch met along a lobe direction: s_i beta (B_j + S_{j->i}).
-  long long add_specular(const Hit& hit, const Ray& ray, double share, std::uint64_t pixel,
-                         int sub, std::vector<Term>& terms) const {
-    const Patch& p = patches_[hit.patch];
-    const Material& m = materials_[p.material];
-    if (!m.has_lobe()) return 0;
-    Frame frame = Frame::from_normal(p.normal);
-    Vec3 wo = frame.to_local(-ray.direction);
-    Vec3 x = ray.origin + hit.t * ray.direction;
-    int count = m.is_delta() ? 1 : o_.lobe_samples;
-    int side = std::max(1, static_cast<int>(std::lround(std::sqrt(count))));
-    count = m.is_delta() ? 1 : side * side;
-    Rng rng(o_.seed, pixel, sub);
+  void add_diffuse(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
+    if (o_.diffuse == DiffuseMode::kSmooth) corners_.add(p, u, v, w, terms);
+    else terms.push_back({p, w});
+  }
+  // Radiance arriving at i from point (u, v) of patch j, times w: w (B_j + S_{j->i}).
+  void add_arriving(PatchId j, double u, double v, PatchId i, const Rgbf& w,
+                    std::vector<Term>& terms) const {
+    add_diffuse(j, u, v, w, terms);
+    Eigen::Index link = t_.link_unknown(j, i);
+    if (link >= 0) terms.push_back({static_cast<std::int32_t>(link), w});
+  }
+
+  // The lobe strategy: s_i beta (B_j + S_{j->i}) for j met along a stratified lobe sample. Where
+  // lights are also sampled, a lobe sample that meets a light takes its power-heuristic weight.
+  long long add_lobe_samples(const Shading& sh, Rng& rng, std::vector<Term>& terms) const {
+    const int count = lobe_count(sh.m), side = std::max(1, static_cast<int>(std::lround(std::sqrt(count))));
+    const bool mis = light_sampled(sh.m);
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
       Vec2 u((s % side + rng.uniform()) / side, (s / side + rng.uniform()) / side);
-      LobeSample ls = m.lobe_sample(wo, u);
+      LobeSample ls = sh.m.lobe_sample(sh.wo, u);
       if (ls.weight <= 0.0) continue;
-      Vec3 dir = frame.to_world(ls.wi);
+      Vec3 dir = sh.frame.to_world(ls.wi);
       ++rays;
-      Hit h = caster_.intersect_from(x, hit.patch, dir);
+      Hit h = caster_.intersect_from(sh.x, sh.i, dir);
       if (!h.valid() || !h.front) continue;
-      Rgbf w = scaled(m.specular, share * ls.weight / count);
-      add_diffuse(h, w, terms);
-      Eigen::Index link = t_.link_unknown(h.patch, hit.patch);
-      if (link >= 0) terms.push_back({static_cast<std::int32_t>(link), w});
+      double w = ls.weight;
+      if (mis && lights_.select_pdf(h.patch) > 0.0) {
+        double dist2 = (h.position - sh.x).squaredNorm();
+        double cos_y = -dir.dot(patches_[h.patch].normal);
+        double light_pdf = lights_.area_pdf(h.patch, h.position) * dist2 / cos_y;
+        w *= power_heuristic(count * ls.pdf, o_.light_samples * light_pdf);
+      }
+      add_arriving(h.patch, h.u, h.v, sh.i, scaled(sh.m.specular, sh.share * w / count), terms);
+    }
+    return rays;
+  }
+
+  // The light strategy (next-event estimation): points on the lights, stratified over their
+  // total area, each s_i lobe cos / pdf (B_j + S_{j->i}) when unoccluded, with the
+  // power-heuristic weight against the lobe samples (Veach's thesis, eq. 9.13).
+  long long add_light_samples(const Shading& sh, Rng& rng, std::vector<Term>& terms) const {
+    if (!light_sampled(sh.m)) return 0;
+    const int count = o_.light_samples, lobes = lobe_count(sh.m);
+    const Vec3& n = patches_[sh.i].normal;
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      double u_select = (s + rng.uniform32()) / count;
+      LightSample l = lights_.sample(u_select, Vec2(rng.uniform32(), rng.uniform32()));
+      Vec3 d = l.point - sh.x;
+      double dist2 = d.squaredNorm();
+      if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;
+      Vec3 wi = d / std::sqrt(dist2);
+      double cos_x = wi.dot(n), cos_y = -wi.dot(patches_[l.patch].normal);
+      if (cos_x <= 0.0 || cos_y <= 0.0) continue;
+      Vec3 wi_local = sh.frame.to_local(wi);
+      double lobe = sh.m.lobe_eval(wi_local, sh.wo);
+      if (!(lobe > 0.0)) continue;
+      ++rays;
+      if (caster_.segment_occluded(sh.x, sh.i, l.point, l.patch)) continue;
+      double light_pdf = l.area_pdf * dist2 / cos_y;  // per unit solid angle
+      double w = lobe * cos_x / (light_pdf * count) *
+                 power_heuristic(count * light_pdf, lobes * sh.m.lobe_pdf(wi_local, sh.wo));
+      add_arriving(l.patch, l.uv.x(), l.uv.y(), sh.i, scaled(sh.m.specular, sh.share * w), terms);
     }
     return rays;
   }
@@ -143,6 +211,7 @@ class PixelGatherer {
   const UnknownLayout& t_;
   const GatherOptions& o_;
   const CornerAverages& corners_;
+  const LightSampler& lights_;
 };
 
 void merge_terms(std::vector<Term>& terms) {
@@ -165,7 +234,8 @@ Gather build_gather(const Camera& camera, const PatchSet& patches,
                     const UnknownLayout& t, const GatherOptions& options) {
   auto t0 = std::chrono::steady_clock::now();
   CornerAverages corners(patches, t.flux_weight);
-  PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners);
+  LightSampler lights(patches, light_areas(patches));
+  PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners, lights);
   const int w = camera.width, h = camera.height;
   std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);
   long long rays = 0;
