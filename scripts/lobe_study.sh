@@ -12,7 +12,10 @@
 #   ./scripts/lobe_study.sh [DIR] [SPP] [SIZES...]
 #     DIR    output (default out/lobe)    SPP  reference samples per pixel (default 16384)
 #     SIZES  patch sizes, default 100 70 50 35 25
-# $POLYRAD names the binary (default: a Release build through scripts/build.sh). References are
+# $POLYRAD names the binary (default: a Release build through scripts/build.sh); $LIGHT_SAMPLES
+# sets the gather's --light-samples (default: polyrad's, 4; 0 shows the gather without them,
+# e.g. LIGHT_SAMPLES=0 ./scripts/lobe_study.sh out/lobe-nolight, which readme_images.sh uses
+# beside out/lobe for the before-and-after picture). References are
 # cached in DIR (delete them to render again); 128 x 128 at 16384 spp takes 2 to 4 minutes each
 # on two cores, the radiosity at patch size 25 about 20 seconds.
 set -euo pipefail
@@ -27,6 +30,7 @@ if [ -z "${POLYRAD:-}" ]; then
   POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
 fi
 mkdir -p "$out"
+light_samples="${LIGHT_SAMPLES:-4}"
 
 # The scenes: sharp-lobe as shipped, and its contrast with the tall block rough; mesh paths made
 # absolute so that both can live in DIR. Also, per scene, the object ids per pixel: every surface
@@ -55,7 +59,7 @@ table="$out/lobe.md"
   echo "Scene \`scenes/stability/sharp-lobe.json\` (128 x 128; tall block GGX alpha 0.05, short" \
        "block 0.3) and the same with the tall block at alpha 0.3: radiosity (\`--method" \
        "iterative\`, smooth shading, 16 gather lobe samples, tolerance 1e-6) against a" \
-       "path-traced reference at $spp spp."
+       "path-traced reference at $spp spp; the gather takes $light_samples points on the lights per glossy hit."
   echo "Angles: the tall block's lobe width (the cone that holds half its energy) against the" \
        "flux-weighted median angle of the patches it exchanges specular light with; polyrad" \
        "warns when the patches are the wider. Region columns: mean luminance, radiosity /" \
@@ -79,7 +83,7 @@ for variant in sharp rough; do
   for size in "${sizes[@]}"; do
     base="$out/$variant-p$size"
     "$POLYRAD" --quiet render "$scene" --patch-size "$size" --tolerance 1e-6 -o "$base.pfm" \
-      --report "$base.json" 2> "$base.stderr"
+      --light-samples "$light_samples" --report "$base.json" 2> "$base.stderr"
     "$POLYRAD" --quiet compare "$base.pfm" "$ref" --scene "$scene" --report "$base-cmp.json" \
       --side-by-side "$base-compare.png" >/dev/null
     /usr/bin/python3 - "$out" "$variant" "$size" "$ref" >> "$table.tmp" <<'PY'

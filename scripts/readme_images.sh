@@ -6,6 +6,7 @@
 #                              polyrad convergence + scripts/convergence_chart.py (convergence.png)
 #   out/accuracy/*             ./scripts/accuracy_study.sh (radiosity | path traced | error)
 #   out/lobe/*                 ./scripts/lobe_study.sh    (coarse mesh under a sharp lobe)
+#   out/lobe-nolight/*         LIGHT_SAMPLES=0 ./scripts/lobe_study.sh out/lobe-nolight
 # A missing source is skipped with a note, so the script can refresh part of the pictures.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -59,6 +60,14 @@ if [ -f "${lobe[0]}" ] && [ -f "${lobe[1]}" ]; then
   strip --column "$dst/sharp-lobe.png" "${lobe[@]}"
 else
   echo "readme_images: skipped sharp-lobe.png (run scripts/lobe_study.sh)" >&2
+fi
+
+# The camera gather without and with points on the lights: sharp-lobe at patch size 25.
+lights=(out/lobe-nolight/sharp-p25-compare.png out/lobe/sharp-p25-compare.png)
+if [ -f "${lights[0]}" ] && [ -f "${lights[1]}" ]; then
+  strip --column "$dst/light-samples.png" "${lights[@]}"
+else
+  echo "readme_images: skipped light-samples.png (run LIGHT_SAMPLES=0 scripts/lobe_study.sh out/lobe-nolight)" >&2
 fi
 
 # Where the mirror cube adds light: each mirror-cube image against the same box with a diffuse

@@ -197,10 +197,14 @@ TEST(Series, ViewModeIsTheGatherOfTheSolution) {
 TEST(Series, FileRoundTripsAndIsRefusedWhenDamaged) {
   auto sys = system_of("cornell-box");
   SeriesOperator q = solution_series(*sys, 6, SeriesBasis::kPatch, ValuePrecision::kHalf);
+  q.gather.lobe_samples = 9;  // the gather a solution-mode relight will build
+  q.gather.light_samples = 7;
   auto dir = test::temp_dir();
   std::string path = (dir / "a.prt").string();
   write_prt(q, path);
   SeriesOperator back = read_prt(path);
+  EXPECT_EQ(back.gather.lobe_samples, 9);
+  EXPECT_EQ(back.gather.light_samples, 7);
   EXPECT_EQ(back.rows(), q.rows());
   EXPECT_EQ(back.report.order, 6);
   EXPECT_EQ(back.scene_hash, sys->scene.hash);
