@@ -155,7 +155,10 @@ class PixelGatherer {
     const bool mis = light_sampled(sh.m);
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
-      Vec2 u((s % side + rng.uniform()) / side, (s / side + rng.uniform()) / side);
+      // One draw a statement (a call's arguments are unsequenced), second coordinate first:
+      // the order GCC gave the figures measured before the draws were written out.
+      const double jy = rng.uniform(), jx = rng.uniform();
+      Vec2 u((s % side + jx) / side, (s / side + jy) / side);
       LobeSample ls = sh.m.lobe_sample(sh.wo, u);
       if (ls.weight <= 0.0) continue;
       Vec3 dir = sh.frame.to_world(ls.wi);
@@ -183,8 +186,9 @@ class PixelGatherer {
     const Vec3& n = patches_[sh.i].normal;
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
-      double u_select = (s + rng.uniform32()) / count;
-      LightSample l = lights_.sample(u_select, Vec2(rng.uniform32(), rng.uniform32()));
+      const double u_select = (s + rng.uniform32()) / count;
+      const double v = rng.uniform32(), u = rng.uniform32();  // (as the lobe samples' order)
+      LightSample l = lights_.sample(u_select, Vec2(u, v));
       Vec3 d = l.point - sh.x;
       double dist2 = d.squaredNorm();
       if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;

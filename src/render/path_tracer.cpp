@@ -105,7 +105,11 @@ Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
     }
 
     // Continue the path by sampling the whole BRDF.
-    BsdfSample s = m.sample(wo, rng.uniform(), rng.uniform2());
+    // The point first, then the choice of lobe (one draw a statement: a call's arguments are
+    // unsequenced; this is the order GCC gave every reference measured before).
+    const Vec2 u_point = rng.uniform2();
+    const double u_lobe = rng.uniform();
+    BsdfSample s = m.sample(wo, u_lobe, u_point);
     if (!(s.weight.maxCoeff() > 0.0)) break;
     beta *= s.weight;
     delta_before = s.delta;

@@ -356,7 +356,9 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
         for (int c = 0; c < count; ++c) {
           const int s = s0 + c;
           ks[c] = 0.0;
-          Vec3 y = target.sample((s + rng.uniform32()) / m, rng.uniform32());
+          // Second coordinate drawn first (see specular_transfer.cpp: the order GCC used).
+          const double v = rng.uniform32(), u = rng.uniform32();
+          Vec3 y = target.sample((s + u) / m, v);
           Vec3 d = y - x;
           double r2 = d.squaredNorm();
           if (!(r2 > 0.0)) continue;  // also a NaN from a degenerate clipped polygon

@@ -61,9 +61,13 @@ void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFac
       // x stratified on P_i; y on P_j stratified too, its strata visited in another order (a
       // stride coprime with the count, so that every stratum is used exactly once).
       int sx = s, sy = (s * stride + 3) % count;
+      // One draw a statement (a call's arguments are unsequenced), each point's second
+      // coordinate first: the order GCC gave every figure measured before this was written out.
       double dx, dy;
-      Vec3 x = pi.sample(Vec2((sx % side + rng.uniform()) / side, (sx / side + rng.uniform()) / side), &dx);
-      Vec3 y = pj.sample(Vec2((sy % side + rng.uniform()) / side, (sy / side + rng.uniform()) / side), &dy);
+      const double xv = rng.uniform(), xu = rng.uniform();
+      Vec3 x = pi.sample(Vec2((sx % side + xu) / side, (sx / side + xv) / side), &dx);
+      const double yv = rng.uniform(), yu = rng.uniform();
+      Vec3 y = pj.sample(Vec2((sy % side + yu) / side, (sy / side + yv) / side), &dy);
       Vec2 lobe_u = rng.uniform2();
       Vec3 d = y - x;
       double r2 = d.squaredNorm();
