@@ -678,6 +678,20 @@ TEST(Brdf, LobeSamplingMatchesPdf) {
   std::printf("lobe sampling: %zu cases, smallest chi-square p-value %.3g\n", cases.size(), min_p);
 }
 
+TEST(Brdf, PhongLobeVanishesBeyondTheMirrorHemisphere) {
+  // lobe_sample draws only around the mirror direction r, so eval and pdf must be zero where
+  // wi . r < 0, for n = 0 too (pow(0, 0) = 1 once made them 1/pi and 1/(2 pi) there).
+  const Vec3 wo = polar_dir(60.0);
+  const Vec3 wi = wo;  // back toward the viewer: wi . r = cos(120 deg)
+  ASSERT_GT(wi.z(), 0.0);
+  ASSERT_LT(wi.dot(reflect_about_normal(wo)), 0.0);
+  for (double n : {0.0, 1.0, 8.0}) {
+    Material m = phong(n);
+    EXPECT_EQ(m.lobe_eval(wi, wo), 0.0) << n;
+    EXPECT_EQ(m.lobe_pdf(wi, wo), 0.0) << n;
+  }
+}
+
 // The whole BRDF: sample() against pdf() (plus the delta cell), weights eval * cos / pdf, the mean
 // weight equals diffuse + specular * lobe albedo per channel, and eval integrates to the same.
 TEST(Brdf, BsdfSamplingMatchesPdf) {

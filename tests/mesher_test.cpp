@@ -122,5 +122,20 @@ TEST(Mesher, ParametrisationAndSampling) {
   EXPECT_NEAR(sum / (n * n), cx, 1e-4);
 }
 
+TEST(Mesher, SampleGivesThePointsParameters) {
+  // Lights drawn by Patch::sample are shaded at the parameters it returns (camera gather).
+  Patch quad = test::make_quad({0, 0, 0}, {2, 0, 0}, {1.5, 1, 0.2}, {0, 1, 0});
+  Patch tri = test::make_quad({0, 0, 0}, {2, 0, 0}, {0.5, 1, 0}, {0.5, 1, 0});
+  tri.corners = 3;
+  for (const Patch* p : {&quad, &tri})
+    for (double s0 : {0.0, 0.13, 0.5, 0.97})
+      for (double s1 : {0.0, 0.31, 0.77, 1.0}) {
+        double density;
+        Vec2 uv;
+        Vec3 y = p->sample(Vec2(s0, s1), &density, &uv);
+        EXPECT_LT((p->point(uv.x(), uv.y()) - y).norm(), 1e-12) << p->corners << " " << s0 << " " << s1;
+      }
+}
+
 }  // namespace
 }  // namespace polyrad

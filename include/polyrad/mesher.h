@@ -41,7 +41,10 @@ struct Patch {
   bool is_triangle() const { return corners == 3; }
   // The point with parameters (u, v): bilinear for a quad (corner 0 at (0,0), 1 at (1,0),
   // 2 at (1,1), 3 at (0,1)), barycentric for a triangle (corner 1 at u = 1, corner 2 at v = 1).
-  // This is the ray caster's parametrisation of a hit.
+  // For triangles and parallelograms this is also the ray caster's parametrisation of a hit;
+  // on other quads Embree's (u, v) is linear over each of the two triangles instead, which
+  // differs from the bilinear one inside the patch (smooth shading reads either; the
+  // difference is far below the interpolation's own error).
   Vec3 point(double u, double v) const;
   // Weights of the corners at parameters (u, v), summing to 1.
   std::array<double, 4> corner_weights(double u, double v) const;

@@ -122,16 +122,18 @@ Vec3 ggx_sample_visible_normal(const Vec3& wo, double alpha, const Vec2& u) {
 
 // ---- normalised modified Phong (eq. 3) -------------------------------------------------------
 
-double phong_cos_alpha(const Vec3& wi, const Vec3& wo) {
-  return std::max(0.0, wi.dot(reflect_about_normal(wo)));
-}
+// The lobe lives on the hemisphere around the mirror direction r, where the sampler draws:
+// zero beyond it even for n = 0 (where pow(0, 0) = 1 would leave it non-zero but never drawn).
+double phong_cos_alpha(const Vec3& wi, const Vec3& wo) { return wi.dot(reflect_about_normal(wo)); }
 
 double phong_eval(const Vec3& wi, const Vec3& wo, double n) {
-  return (n + 2.0) / (2.0 * kPi) * std::pow(phong_cos_alpha(wi, wo), n);
+  double c = phong_cos_alpha(wi, wo);
+  return c > 0.0 ? (n + 2.0) / (2.0 * kPi) * std::pow(c, n) : 0.0;
 }
 
 double phong_pdf(const Vec3& wi, const Vec3& wo, double n) {
-  return (n + 1.0) / (2.0 * kPi) * std::pow(phong_cos_alpha(wi, wo), n);
+  double c = phong_cos_alpha(wi, wo);
+  return c > 0.0 ? (n + 1.0) / (2.0 * kPi) * std::pow(c, n) : 0.0;
 }
 
 }  // namespace
