@@ -205,6 +205,41 @@ TEST(Cli, ReorderFlagIsReportedAndBadValuesAreExitTwo) {
   EXPECT_FALSE(std::filesystem::exists(dir / "x.pfm"));
 }
 
+double relative_l1(const std::string& a, const std::string& b) {
+  Image x = read_image(a), y = read_image(b);
+  EXPECT_EQ(x.rgb.size(), y.rgb.size());
+  double sum = 0.0, diff = 0.0;
+  for (size_t k = 0; k < x.rgb.size() && k < y.rgb.size(); ++k) {
+    sum += std::abs(y.rgb[k]);
+    diff += std::abs(x.rgb[k] - y.rgb[k]);
+  }
+  return diff / sum;
+}
+
+TEST(Cli, PrecomputeTakesTheGatherFlagsOfRender) {
+  // The gather a view operator folds in (and the one a solution operator's relight builds) is
+  // the one `render` would use with the same flags; and a solution operator made with
+  // --patch-size is meshed again at that size when it is relit.
+  auto dir = test::temp_dir();
+  const std::string scene = test::scene_path("cornell-glossy") + " --patch-size 150";
+  const std::string gather = " --lobe-samples 4 --light-samples 1 --diffuse flat --pixel-grid 1";
+  const std::string view = (dir / "v.prt").string(), sol = (dir / "s.prt").string(),
+                    plain = (dir / "p.prt").string();
+  ASSERT_EQ(run("precompute " + scene + " -o " + view + " --tolerance 1e-6" + gather).code, 0);
+  ASSERT_EQ(run("precompute " + scene + " -o " + sol + " --tolerance 1e-6 --output solution" + gather).code, 0);
+  ASSERT_EQ(run("precompute " + scene + " -o " + plain + " --tolerance 1e-6").code, 0);
+  const std::string v = (dir / "v.pfm").string(), s = (dir / "s.pfm").string(),
+                    p = (dir / "p.pfm").string(), r = (dir / "r.pfm").string();
+  ASSERT_EQ(run("relight " + view + " -o " + v).code, 0);
+  ASSERT_EQ(run("relight " + sol + " -o " + s).code, 0);
+  ASSERT_EQ(run("relight " + plain + " -o " + p).code, 0);
+  ASSERT_EQ(run("render " + scene + " --tolerance 1e-8 -o " + r + gather).code, 0);
+  EXPECT_LT(relative_l1(v, r), 1e-5);
+  EXPECT_LT(relative_l1(s, r), 1e-5);
+  EXPECT_GT(relative_l1(p, r), 1e-2);  // the default gather: smooth shading, four rays a pixel
+  EXPECT_EQ(run("precompute " + scene + " -o " + view + " --light-samples -1").code, 2);
+}
+
 TEST(Cli, RenderBySeriesMatchesIterative) {
   auto dir = test::temp_dir();
   std::string a = (dir / "s.pfm").string(), b = (dir / "i.pfm").string();

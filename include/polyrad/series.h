@@ -119,6 +119,7 @@ class SeriesOperator {
   SeriesReport report;
   std::string scene_file;
   std::uint64_t scene_hash = 0;
+  double patch_size = 0.0;        // > 0: the patch size that overrode the scene's (meshing again)
 
   std::int64_t rows() const { return rows_; }
   std::int64_t cols() const { return static_cast<std::int64_t>(columns.size()); }

@@ -140,6 +140,33 @@ void write_patch_csv(const std::string& path, const RadiositySystem& sys, const 
   write_file_atomic(path, s.str());
 }
 
+void GatherFlags::add(CLI::App& app) {
+  app.add_option("--diffuse", diffuse, "Diffuse shading in the image")
+      ->check(CLI::IsMember({"smooth", "flat"}))
+      ->capture_default_str();
+  app.add_option("--pixel-grid", pixel_grid, "Sub-pixel rays per side")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  app.add_option("--lobe-samples", lobe_samples, "Gather samples of a glossy lobe")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  app.add_option("--light-samples", light_samples,
+                 "Gather points on the lights per glossy hit, weighted against the lobe samples "
+                 "(0: lobe samples alone)")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+}
+
+GatherOptions GatherFlags::options(bool classic) const {
+  GatherOptions go;
+  go.diffuse = diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
+  go.pixel_grid = pixel_grid;
+  go.lobe_samples = lobe_samples;
+  go.light_samples = light_samples;
+  go.specular = !classic;
+  return go;
+}
+
 void SystemFlags::add(CLI::App& app) {
   app.add_option("--patch-size", patch_size, "Override every patch_size of the scene")
       ->check(CLI::PositiveNumber);

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "polyrad/camera_gather.h"
 #include "polyrad/json.h"
 #include "polyrad/pipeline.h"
 #include "polyrad/solver.h"
@@ -50,6 +51,17 @@ struct SystemFlags {
   void add(CLI::App& app);
   PipelineOptions pipeline() const;
   SceneOptions scene_options() const;
+};
+
+// The camera gather's flags, for `render` and `precompute`.
+struct GatherFlags {
+  std::string diffuse = "smooth";
+  int pixel_grid = 2;
+  int lobe_samples = 16;
+  int light_samples = 4;
+  void add(CLI::App& app);
+  // classic: every material shows its diffuse part only, as the classic system transports it.
+  GatherOptions options(bool classic) const;
 };
 
 void add_render_command(CLI::App& app, int& exit_code);

@@ -10,16 +10,6 @@
 
 namespace polyrad::cli {
 
-GatherOptions gather_options(const RenderFlags& f) {
-  GatherOptions go;
-  go.diffuse = f.diffuse == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
-  go.pixel_grid = f.pixel_grid;
-  go.lobe_samples = f.lobe_samples;
-  go.light_samples = f.light_samples;
-  go.specular = !f.system.classic;
-  return go;
-}
-
 int render_iterative(const RenderFlags& f) {
   check_image_path(f.output);
   if (!f.report.empty()) check_output_path(f.report, "report");
@@ -44,7 +34,7 @@ int render_iterative(const RenderFlags& f) {
   if (result.status == SolveStatus::kNotConverged) throw NumericalError(result.message);
 
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                               sys->transport, gather_options(f));
+                               sys->transport, f.gather.options(f.system.classic));
   auto tg = std::chrono::steady_clock::now();
   Image image = apply_gather(gather, result.u);
   double apply_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tg).count();
@@ -123,20 +113,7 @@ void add_render_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--seed", flags->seed, "Path tracer: random seed")->capture_default_str();
   cmd->add_option("--report", flags->report, "Write a JSON report here");
   cmd->add_option("--patches", flags->patches_csv, "Write one CSV row per patch here");
-  cmd->add_option("--diffuse", flags->diffuse, "Diffuse shading in the image")
-      ->check(CLI::IsMember({"smooth", "flat"}))
-      ->capture_default_str();
-  cmd->add_option("--pixel-grid", flags->pixel_grid, "Sub-pixel rays per side")
-      ->check(CLI::Range(1, 16))
-      ->capture_default_str();
-  cmd->add_option("--lobe-samples", flags->lobe_samples, "Gather samples of a glossy lobe")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-  cmd->add_option("--light-samples", flags->light_samples,
-                  "Gather points on the lights per glossy hit, weighted against the lobe samples "
-                  "(0: lobe samples alone)")
-      ->check(CLI::Range(0, 4096))
-      ->capture_default_str();
+  flags->gather.add(*cmd);
   cmd->add_option("--exposure", flags->exposure, "Exposure of the .png tonemap")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

@@ -4,7 +4,6 @@
 #include <string>
 
 #include "cli_common.h"
-#include "polyrad/camera_gather.h"
 
 namespace polyrad::cli {
 
@@ -23,16 +22,10 @@ struct RenderFlags {
   int spp = 64;
   std::uint64_t seed = 1;
   // gather and image
-  std::string diffuse = "smooth";
-  int pixel_grid = 2;
-  int lobe_samples = 16;
-  int light_samples = 4;
+  GatherFlags gather;
   double exposure = 1.0;
   SystemFlags system;
 };
-
-// The camera gather's options from the flags (iterative and series).
-GatherOptions gather_options(const RenderFlags& f);
 
 // One per method; each returns an exit code and writes its outputs only on success.
 int render_iterative(const RenderFlags& f);

@@ -84,6 +84,10 @@ Image product_image(const SeriesOperator& q, const std::vector<float>& out, cons
   if (q.output == SeriesOutput::kView) return series_image(q, out);
   POLYRAD_CHECK(scene != nullptr);
   auto t0 = std::chrono::steady_clock::now();
+  Scene meshed = *scene;
+  if (q.patch_size > 0.0)
+    for (auto& o : meshed.objects) o.patch_size = q.patch_size;  // as build_system did
+  scene = &meshed;
   PatchSet patches = mesh_scene(*scene);
   if (static_cast<int>(patches.size()) != q.layout.num_patches)
     throw InputError("the scene meshes into " + std::to_string(patches.size()) +
@@ -102,6 +106,7 @@ struct PrecomputeFlags {
       acceleration = "none", reorder = "none";
   int order = -1;
   double tolerance = 1e-3, drop = 0.0;
+  GatherFlags gather;  // view rows: the gather folded in; solution rows: the one relight builds
   SystemFlags system;
 };
 
@@ -122,12 +127,14 @@ int run_precompute(const PrecomputeFlags& f) {
   print_warnings(*sys);
   SeriesOptions o = series_options(f.order, f.tolerance, f.drop, f.precision, f.output_kind, f.basis,
                                    f.acceleration, f.reorder);
+  const GatherOptions go = f.gather.options(f.system.classic);
   std::unique_ptr<Gather> gather;
   if (o.output == SeriesOutput::kView)
     gather = std::make_unique<Gather>(build_gather(sys->scene.camera, sys->patches, sys->scene.materials,
-                                                   *sys->caster, sys->transport, GatherOptions{}));
+                                                   *sys->caster, sys->transport, go));
   SeriesOperator q = precompute_series(sys->transport, sys->patches, sys->scene, gather.get(), o);
-  if (o.output == SeriesOutput::kSolution) q.gather = GatherOptions{};
+  if (o.output == SeriesOutput::kSolution) q.gather = go;
+  q.patch_size = f.system.patch_size;
   auto tw = std::chrono::steady_clock::now();
   write_prt(q, f.output);
   double write_seconds = seconds_since(tw);
@@ -239,7 +246,7 @@ int render_series(const RenderFlags& f) {
   auto sys = build_system(load_scene(f.scene, f.system.scene_options()), f.system.pipeline());
   print_warnings(*sys);
   Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                               sys->transport, gather_options(f));
+                               sys->transport, f.gather.options(f.system.classic));
   SeriesOptions o = series_options(f.order, f.tolerance, 0.0, "float", "view", "patch", f.acceleration,
                                    f.reorder);
   SeriesOperator q = precompute_series(sys->transport, sys->patches, sys->scene, &gather, o);
@@ -308,6 +315,7 @@ void add_precompute_command(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"none", "rcm"}))
       ->capture_default_str();
   cmd->add_option("--report", f->report, "Write a JSON report here");
+  f->gather.add(*cmd);
   f->system.add(*cmd);
   cmd->callback([f, &exit_code] { exit_code = run_precompute(*f); });
 }

@@ -36,6 +36,7 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
   w.value("format", "polyrad series operator");
   w.value("scene_file", q.scene_file);
   w.value("scene_hash", std::to_string(q.scene_hash));
+  w.value("patch_size", q.patch_size);
   w.value("output", series_output_name(q.output));
   w.value("basis", series_basis_name(q.basis));
   w.value("precision", value_precision_name(q.precision));
@@ -237,6 +238,12 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
     if (used != hash.size()) throw std::invalid_argument(hash);
   } catch (const std::exception&) {
     refuse(name, "the scene hash is malformed");
+  }
+  // Absent from files written before the override was recorded: they had none, or cannot be
+  // meshed again (their relight in solution mode says so).
+  if (h.find("patch_size")) {
+    q.patch_size = number(h, "patch_size", name);
+    if (!(q.patch_size >= 0.0 && q.patch_size < 1e300)) refuse(name, "the patch size is out of range");
   }
   const double limit = static_cast<double>(size);
   const std::int64_t rows = count(h, "rows", name, limit);
