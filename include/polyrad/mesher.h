@@ -46,6 +46,8 @@ struct Patch {
   // differs from the bilinear one inside the patch (smooth shading reads either; the
   // difference is far below the interpolation's own error).
   Vec3 point(double u, double v) const;
+  // The tangents d point / du and d point / dv of a quad's bilinear map at (u, v).
+  void tangents(double u, double v, Vec3* du, Vec3* dv) const;
   // Weights of the corners at parameters (u, v), summing to 1.
   std::array<double, 4> corner_weights(double u, double v) const;
   // A point for the unit-square sample s, with `density` set to the area density of the map

@@ -75,6 +75,10 @@ struct RadiositySystem {
 
 std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions& options = {});
 
+// The --patch-size override as build_system applies it: when patch_size > 0, every object's.
+// Whatever meshes the scene again to match a system (path tracer, relight) calls this too.
+void override_patch_size(Scene& scene, double patch_size);
+
 // Peak resident memory of this process so far, in bytes.
 std::size_t peak_memory_bytes();
 

@@ -25,8 +25,7 @@ int render_pathtrace(const RenderFlags& f) {
   Scene scene = load_scene(f.scene, f.system.scene_options());
   // Same geometry as the radiosity run with the same flags: --patch-size re-meshes (which
   // matters only for quads that bend), --classic keeps only the diffuse part of each material.
-  if (f.system.patch_size > 0.0)
-    for (auto& o : scene.objects) o.patch_size = f.system.patch_size;
+  override_patch_size(scene, f.system.patch_size);
   if (f.system.classic)
     for (auto& m : scene.materials) m = Material::lambert(m.name, m.diffuse);
   double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

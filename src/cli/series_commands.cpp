@@ -78,16 +78,13 @@ SeriesOptions series_options(int order, double tolerance, double drop, const std
 }
 
 // The image of a product: view mode directly; solution mode through the scene camera's gather,
-// rebuilt from the scene the operator was made from.
-Image product_image(const SeriesOperator& q, const std::vector<float>& out, const Scene* scene,
+// rebuilt from the scene the operator was made from (given the operator's --patch-size, if any).
+Image product_image(const SeriesOperator& q, const std::vector<float>& out, Scene* scene,
                     double* gather_seconds) {
   if (q.output == SeriesOutput::kView) return series_image(q, out);
   POLYRAD_CHECK(scene != nullptr);
   auto t0 = std::chrono::steady_clock::now();
-  Scene meshed = *scene;
-  if (q.patch_size > 0.0)
-    for (auto& o : meshed.objects) o.patch_size = q.patch_size;  // as build_system did
-  scene = &meshed;
+  override_patch_size(*scene, q.patch_size);
   PatchSet patches = mesh_scene(*scene);
   if (static_cast<int>(patches.size()) != q.layout.num_patches)
     throw InputError("the scene meshes into " + std::to_string(patches.size()) +

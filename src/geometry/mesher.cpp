@@ -159,6 +159,11 @@ std::array<double, 4> Patch::corner_weights(double u, double v) const {
   return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
 }
 
+void Patch::tangents(double u, double v, Vec3* du, Vec3* dv) const {
+  *du = (1 - v) * (corner[1] - corner[0]) + v * (corner[2] - corner[3]);
+  *dv = (1 - u) * (corner[3] - corner[0]) + u * (corner[2] - corner[1]);
+}
+
 Vec3 Patch::sample(const Vec2& s, double* density, Vec2* uv) const {
   if (is_triangle()) {
     double r = std::sqrt(s.x());
@@ -168,8 +173,8 @@ Vec3 Patch::sample(const Vec2& s, double* density, Vec2* uv) const {
   }
   double u = s.x(), v = s.y();
   if (uv) *uv = s;
-  Vec3 du = (1 - v) * (corner[1] - corner[0]) + v * (corner[2] - corner[3]);
-  Vec3 dv = (1 - u) * (corner[3] - corner[0]) + u * (corner[2] - corner[1]);
+  Vec3 du, dv;
+  tangents(u, v, &du, &dv);
   *density = du.cross(dv).norm() / area;
   return point(u, v);
 }

@@ -106,10 +106,9 @@ class PixelGatherer {
         if (!o_.specular) continue;
         const Material& m = materials_[patches_[hit.patch].material];
         if (!m.has_lobe()) continue;
-        Shading sh{hit.patch, m, Frame::from_normal(patches_[hit.patch].normal), Vec3::Zero(),
-                   Vec3::Zero(), share};
-        sh.x = ray.origin + hit.t * ray.direction;
-        sh.wo = sh.frame.to_local(-ray.direction);
+        const Frame frame = Frame::from_normal(patches_[hit.patch].normal);
+        const Shading sh{hit.patch, m, frame, ray.origin + hit.t * ray.direction,
+                         frame.to_local(-ray.direction), share};
         Rng rng(o_.seed, static_cast<std::uint64_t>(y) * camera_.width + x, a * n + b);
         rays += add_lobe_samples(sh, rng, terms);
         rays += add_light_samples(sh, rng, terms);
@@ -130,10 +129,9 @@ class PixelGatherer {
   bool light_sampled(const Material& m) const {
     return o_.light_samples > 0 && !lights_.empty() && !m.is_delta();
   }
-  int lobe_count(const Material& m) const {
-    if (m.is_delta()) return 1;
-    int side = std::max(1, static_cast<int>(std::lround(std::sqrt(o_.lobe_samples))));
-    return side * side;
+  // The lobe samples form a side x side grid (one sample for a delta lobe).
+  int lobe_side(const Material& m) const {
+    return m.is_delta() ? 1 : std::max(1, static_cast<int>(std::lround(std::sqrt(o_.lobe_samples))));
   }
 
   void add_diffuse(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
@@ -151,7 +149,7 @@ class PixelGatherer {
   // The lobe strategy: s_i beta (B_j + S_{j->i}) for j met along a stratified lobe sample. Where
   // lights are also sampled, a lobe sample that meets a light takes its power-heuristic weight.
   long long add_lobe_samples(const Shading& sh, Rng& rng, std::vector<Term>& terms) const {
-    const int count = lobe_count(sh.m), side = std::max(1, static_cast<int>(std::lround(std::sqrt(count))));
+    const int side = lobe_side(sh.m), count = side * side;
     const bool mis = light_sampled(sh.m);
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
@@ -182,7 +180,7 @@ class PixelGatherer {
   // power-heuristic weight against the lobe samples (Veach's thesis, eq. 9.13).
   long long add_light_samples(const Shading& sh, Rng& rng, std::vector<Term>& terms) const {
     if (!light_sampled(sh.m)) return 0;
-    const int count = o_.light_samples, lobes = lobe_count(sh.m);
+    const int count = o_.light_samples, side = lobe_side(sh.m), lobes = side * side;
     const Vec3& n = patches_[sh.i].normal;
     long long rays = 0;
     for (int s = 0; s < count; ++s) {

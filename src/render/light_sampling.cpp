@@ -7,16 +7,6 @@
 
 namespace polyrad {
 
-namespace {
-
-// The bilinear map of Patch::point and its two tangents at (u, v).
-void bilinear_tangents(const Patch& p, double u, double v, Vec3* du, Vec3* dv) {
-  *du = (1 - v) * (p.corner[1] - p.corner[0]) + v * (p.corner[2] - p.corner[3]);
-  *dv = (1 - u) * (p.corner[3] - p.corner[0]) + u * (p.corner[2] - p.corner[1]);
-}
-
-}  // namespace
-
 LightSampler::LightSampler(const PatchSet& patches, const std::vector<double>& weight)
     : patches_(patches), select_pdf_(patches.size(), 0.0) {
   POLYRAD_CHECK(weight.size() == patches.size());
@@ -56,7 +46,7 @@ double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
   double u = 0.5, v = 0.5;
   for (int it = 0; it < 4; ++it) {
     Vec3 du, dv;
-    bilinear_tangents(q, u, v, &du, &dv);
+    q.tangents(u, v, &du, &dv);
     Vec3 r = y - q.point(u, v);
     double a = du.dot(du), b = du.dot(dv), c = dv.dot(dv);
     double det = a * c - b * b;
@@ -66,7 +56,7 @@ double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
     v = std::clamp(v + (a * rv - b * ru) / det, 0.0, 1.0);
   }
   Vec3 du, dv;
-  bilinear_tangents(q, u, v, &du, &dv);
+  q.tangents(u, v, &du, &dv);
   double jacobian = du.cross(dv).norm();
   return jacobian > 0.0 ? select / jacobian : 0.0;
 }

@@ -37,10 +37,14 @@ double physical_memory_bytes() {
   return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
 }
 
+void override_patch_size(Scene& scene, double patch_size) {
+  if (patch_size > 0.0)
+    for (auto& o : scene.objects) o.patch_size = patch_size;
+}
+
 MemoryEstimate estimate_memory(const Scene& scene, const PipelineOptions& options) {
   Scene s = scene;
-  if (options.patch_size > 0.0)
-    for (auto& o : s.objects) o.patch_size = options.patch_size;
+  override_patch_size(s, options.patch_size);
   MemoryEstimate m;
   m.patches = count_patches(s);
   // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
@@ -78,8 +82,7 @@ std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions
   }
   auto sys = std::make_unique<RadiositySystem>();
   sys->scene = std::move(scene);
-  if (options.patch_size > 0.0)
-    for (auto& o : sys->scene.objects) o.patch_size = options.patch_size;
+  override_patch_size(sys->scene, options.patch_size);
   Stopwatch watch;
   sys->patches = mesh_scene(sys->scene);
   sys->times.push_back({"mesh", watch.lap()});
