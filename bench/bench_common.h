@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "polyrad/progress.h"
+#include "polyrad/util/progress.h"
 
 namespace polyrad::bench {
 

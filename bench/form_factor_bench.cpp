@@ -40,11 +40,11 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "polyrad/form_factors.h"
-#include "polyrad/mesher.h"
-#include "polyrad/ray_caster.h"
-#include "polyrad/sampling.h"
-#include "polyrad/scene.h"
+#include "polyrad/transport/form_factors.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/util/sampling.h"
+#include "polyrad/scene/scene.h"
 
 namespace polyrad {
 

@@ -32,10 +32,10 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/series.h"
-#include "polyrad/solver.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/series.h"
+#include "polyrad/solve/solver.h"
 
 namespace polyrad {
 

@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/solver.h"
 
 namespace polyrad {
 

@@ -9,7 +9,7 @@
 #include <exception>
 #include <string>
 
-#include "polyrad/error.h"
+#include "polyrad/util/error.h"
 
 namespace polyrad::fuzz {
 

@@ -26,9 +26,10 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/half.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/scene.h"
+#include "polyrad/util/half.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/util/hash.h"
+#include "polyrad/scene/scene.h"
 
 namespace polyrad::fuzz {
 
@@ -147,7 +148,7 @@ struct AlignedBytes {
 inline void prt_input(const std::string& bytes) {
   AlignedBytes file(bytes);
   if (file.size >= 24) {
-    const std::uint64_t sum = prt_checksum(file.data, file.size - 8);
+    const std::uint64_t sum = checksum64(file.data, file.size - 8);
     if (std::memcmp(file.data + file.size - 8, &sum, 8) != 0) {
       try {
         SeriesOperator q = read_prt_bytes(file.data, file.size, "fuzz.prt");

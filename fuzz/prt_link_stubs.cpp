@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "polyrad/solver.h"
-#include "polyrad/transport.h"
+#include "polyrad/solve/solver.h"
+#include "polyrad/transport/transport.h"
 
 namespace polyrad {
 

@@ -14,7 +14,7 @@
 // smoothstep substitution that removes the square-root behaviour at its ends, and panels graded
 // toward both ends. The error estimate of a quadrature is its difference to a coarser rule plus
 // 1e-12 for summation rounding; the tests assert that it is small before using it as a tolerance.
-#include "polyrad/brdf.h"
+#include "polyrad/scene/brdf.h"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +24,7 @@
 #include <limits>
 #include <vector>
 
-#include "polyrad/sampling.h"
+#include "polyrad/util/sampling.h"
 
 namespace polyrad {
 namespace {

@@ -1,10 +1,10 @@
-#include "polyrad/camera_gather.h"
+#include "polyrad/render/camera_gather.h"
 
 #include <gtest/gtest.h>
 
-#include "polyrad/pipeline.h"
-#include "polyrad/sampling.h"
-#include "polyrad/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/sampling.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

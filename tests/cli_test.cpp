@@ -6,8 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "polyrad/image.h"
-#include "polyrad/json.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/util/json.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -1,11 +1,11 @@
 // Form factors against the closed forms of METHOD.md section 8.
-#include "polyrad/form_factors.h"
+#include "polyrad/transport/form_factors.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "polyrad/pipeline.h"
-#include "polyrad/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -16,11 +16,11 @@
 #include <vector>
 
 #include "fuzz_inputs.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/error.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/series.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/error.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/solve/series.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -1,5 +1,6 @@
 // Image comparison figures on synthetic images with known answers, and `polyrad compare`.
-#include "polyrad/image_compare.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/render/image_compare.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +10,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "polyrad/files.h"
-#include "polyrad/json.h"
+#include "polyrad/util/files.h"
+#include "polyrad/util/json.h"
 #include "test_support.h"
 
 namespace polyrad {

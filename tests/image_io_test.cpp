@@ -2,8 +2,8 @@
 
 #include <filesystem>
 
-#include "polyrad/error.h"
-#include "polyrad/image.h"
+#include "polyrad/util/error.h"
+#include "polyrad/io/image_io.h"
 #include "test_support.h"
 
 namespace polyrad {

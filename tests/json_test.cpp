@@ -1,4 +1,4 @@
-#include "polyrad/json.h"
+#include "polyrad/util/json.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Coarse patches against sharp lobes (METHOD.md section 9): the lobe widths the check uses, the
 // warning it raises, and the error it warns about, against an independent quadrature.
-#include "polyrad/lobe_resolution.h"
+#include "polyrad/transport/lobe_resolution.h"
 
 #include <gtest/gtest.h>
 
@@ -11,10 +11,10 @@
 #include <sstream>
 #include <utility>
 
-#include "polyrad/json.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/sampling.h"
-#include "polyrad/solver.h"
+#include "polyrad/util/json.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/sampling.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -1,4 +1,4 @@
-#include "polyrad/mesher.h"
+#include "polyrad/geometry/mesher.h"
 
 #include <gtest/gtest.h>
 

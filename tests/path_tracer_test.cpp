@@ -1,6 +1,7 @@
 // The path tracer against exact answers (METHOD.md section 8). Every tolerance is a multiple of
 // the estimator's own standard error, estimated from the same samples.
-#include "polyrad/path_tracer.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/render/path_tracer.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -13,9 +14,9 @@
 #include <memory>
 #include <sstream>
 
-#include "polyrad/files.h"
-#include "polyrad/image_compare.h"
-#include "polyrad/json.h"
+#include "polyrad/util/files.h"
+#include "polyrad/render/image_compare.h"
+#include "polyrad/util/json.h"
 #include "test_support.h"
 
 namespace polyrad {

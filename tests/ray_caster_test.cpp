@@ -1,8 +1,8 @@
-#include "polyrad/ray_caster.h"
+#include "polyrad/raycast/ray_caster.h"
 
 #include <gtest/gtest.h>
 
-#include "polyrad/sampling.h"
+#include "polyrad/util/sampling.h"
 
 #include "test_support.h"
 

@@ -1,6 +1,6 @@
 // Reverse Cuthill-McKee (reorder.h) and the series precompute on the renumbered operator: the
 // ordering is a permutation that narrows the band, and Q does not change.
-#include "polyrad/reorder.h"
+#include "polyrad/transport/reorder.h"
 
 #include <gtest/gtest.h>
 
@@ -12,9 +12,10 @@
 #include <random>
 #include <stdexcept>
 
-#include "polyrad/pipeline.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/series.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/hash.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/solve/series.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -174,7 +175,7 @@ std::string read_bytes(const std::string& path) {
 
 // The bytes with their checksum recomputed, written to dir/name.
 std::string with_checksum(std::string bytes, const std::filesystem::path& dir, const std::string& name) {
-  std::uint64_t sum = prt_checksum(bytes.data(), bytes.size() - 8);
+  std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
   std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
   return test::write_file(dir, name, bytes);
 }

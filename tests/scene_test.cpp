@@ -1,5 +1,5 @@
 // The scene format: the documented example loads, and every error path names where it is.
-#include "polyrad/scene.h"
+#include "polyrad/scene/scene.h"
 
 #include <gtest/gtest.h>
 

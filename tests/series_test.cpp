@@ -1,5 +1,5 @@
 // The precomputed power series against the iterative solver and the bounds of METHOD.md sec. 5.
-#include "polyrad/series.h"
+#include "polyrad/solve/series.h"
 
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <cstring>
 #include <fstream>
 
-#include "polyrad/pipeline.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

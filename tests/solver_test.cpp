@@ -1,9 +1,9 @@
 // The plain iterative solver: furnace answers, agreement of the two methods, statuses.
-#include "polyrad/solver.h"
+#include "polyrad/solve/solver.h"
 
 #include <gtest/gtest.h>
 
-#include "polyrad/pipeline.h"
+#include "polyrad/transport/system.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -3,9 +3,9 @@
 
 #include <cmath>
 
-#include "polyrad/pipeline.h"
-#include "polyrad/series.h"
-#include "polyrad/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/series.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

@@ -10,7 +10,7 @@
 #include <map>
 #include <sstream>
 
-#include "polyrad/image.h"
+#include "polyrad/io/image_io.h"
 #include "test_support.h"
 
 namespace polyrad {

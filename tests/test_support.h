@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/mesher.h"
-#include "polyrad/scene.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/scene/scene.h"
 
 namespace polyrad::test {
 

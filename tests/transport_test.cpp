@@ -1,14 +1,14 @@
 // The link transport operator against answers known exactly (METHOD.md section 8).
-#include "polyrad/transport.h"
+#include "polyrad/transport/transport.h"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <sstream>
 
-#include "polyrad/camera_gather.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/solver.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {

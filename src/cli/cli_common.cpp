@@ -8,8 +8,8 @@
 #include <sstream>
 #include <thread>
 
-#include "polyrad/files.h"
-#include "polyrad/image.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
 
 namespace polyrad::cli {
 

@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/camera_gather.h"
-#include "polyrad/json.h"
-#include "polyrad/pipeline.h"
-#include "polyrad/solver.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/json.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/solve/solver.h"
 
 namespace polyrad::cli {
 

@@ -4,12 +4,12 @@
 #include <memory>
 
 #include "cli_common.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/image_compare.h"
-#include "polyrad/mesher.h"
-#include "polyrad/ray_caster.h"
-#include "polyrad/scene.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/render/image_compare.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/scene.h"
 
 namespace polyrad::cli {
 

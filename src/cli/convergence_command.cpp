@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "cli_common.h"
-#include "polyrad/files.h"
-#include "polyrad/progress.h"
+#include "polyrad/util/files.h"
+#include "polyrad/util/progress.h"
 
 namespace polyrad::cli {
 

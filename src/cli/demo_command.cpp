@@ -12,14 +12,14 @@
 #include <sstream>
 
 #include "cli_common.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/image_compare.h"
-#include "polyrad/path_tracer.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/scene.h"
-#include "polyrad/series.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/render/image_compare.h"
+#include "polyrad/render/path_tracer.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/scene/scene.h"
+#include "polyrad/solve/series.h"
 
 #ifndef POLYRAD_SCENES_DIR
 #define POLYRAD_SCENES_DIR "scenes"

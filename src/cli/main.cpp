@@ -6,8 +6,8 @@
 #include <unistd.h>
 
 #include "cli_common.h"
-#include "polyrad/files.h"
-#include "polyrad/progress.h"
+#include "polyrad/util/files.h"
+#include "polyrad/util/progress.h"
 
 namespace {
 

@@ -3,10 +3,10 @@
 #include <cstdio>
 
 #include "render_flags.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/scene.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/scene/scene.h"
 
 namespace polyrad::cli {
 

@@ -3,12 +3,12 @@
 #include <cmath>
 #include <cstdio>
 
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/mesher.h"
-#include "polyrad/path_tracer.h"
-#include "polyrad/ray_caster.h"
-#include "polyrad/scene.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/render/path_tracer.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/scene.h"
 #include "render_flags.h"
 
 namespace polyrad::cli {

@@ -5,11 +5,11 @@
 #include <sstream>
 
 #include "render_flags.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/prt_file.h"
-#include "polyrad/series.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/io/prt_file.h"
+#include "polyrad/solve/series.h"
 
 namespace polyrad::cli {
 

@@ -26,16 +26,16 @@
 #include <sstream>
 
 #include "cli_common.h"
-#include "polyrad/camera_gather.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
-#include "polyrad/image_compare.h"
-#include "polyrad/mesher.h"
-#include "polyrad/path_tracer.h"
-#include "polyrad/progress.h"
-#include "polyrad/ray_caster.h"
-#include "polyrad/scene.h"
-#include "polyrad/series.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
+#include "polyrad/render/image_compare.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/render/path_tracer.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/scene.h"
+#include "polyrad/solve/series.h"
 
 namespace polyrad::cli {
 

@@ -1,5 +1,5 @@
 // Scene faces -> patches (mesher.h).
-#include "polyrad/mesher.h"
+#include "polyrad/geometry/mesher.h"
 
 #include <algorithm>
 #include <cmath>

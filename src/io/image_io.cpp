@@ -1,4 +1,4 @@
-// Image files (image.h): OpenEXR and PNG through OpenImageIO, PFM written directly.
+// Image files (io/image_io.h): OpenEXR and PNG through OpenImageIO, PFM written directly.
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -9,9 +9,9 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "polyrad/error.h"
-#include "polyrad/files.h"
-#include "polyrad/image.h"
+#include "polyrad/util/error.h"
+#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
 
 namespace polyrad {
 
@@ -78,10 +78,6 @@ void write_oiio(const Image& image, const std::string& path, bool png, double ex
 }
 
 }  // namespace
-
-bool Image::all_finite() const {
-  return std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v); });
-}
 
 std::array<unsigned char, 3> to_srgb8(const Rgb& c, double exposure) {
   std::array<unsigned char, 3> out;

@@ -1,5 +1,5 @@
 // .prt files (prt_file.h).
-#include "polyrad/prt_file.h"
+#include "polyrad/io/prt_file.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -12,9 +12,9 @@
 #include <cstring>
 #include <stdexcept>
 
-#include "polyrad/files.h"
-#include "polyrad/json.h"
-#include "polyrad/sampling.h"
+#include "polyrad/util/files.h"
+#include "polyrad/util/json.h"
+#include "polyrad/util/hash.h"
 
 namespace polyrad {
 
@@ -136,7 +136,7 @@ std::string encode(const SeriesOperator& q) {
   std::memcpy(&bytes[16], header.data(), header.size());
   for (size_t b = 0; b < blobs.size(); ++b)
     if (blobs[b].size) std::memcpy(&bytes[sections[b].offset], blobs[b].data, blobs[b].size);
-  std::uint64_t sum = prt_checksum(bytes.data(), bytes.size() - 8);
+  std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
   std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
   return bytes;
 }
@@ -176,20 +176,6 @@ void read_reorder_report(const JsonValue& r, const std::string& name, SeriesRepo
 
 }  // namespace
 
-std::uint64_t prt_checksum(const void* data, std::size_t size) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  std::uint64_t h = 0x9e3779b97f4a7c15ull ^ size;
-  std::size_t n = size / 8;
-  for (std::size_t k = 0; k < n; ++k) {
-    std::uint64_t w;
-    std::memcpy(&w, p + 8 * k, 8);
-    h = (h ^ w) * 0x100000001b3ull;
-    h ^= h >> 29;
-  }
-  for (std::size_t k = 8 * n; k < size; ++k) h = (h ^ p[k]) * 0x100000001b3ull;
-  return mix64(h);
-}
-
 void write_prt(const SeriesOperator& q, const std::string& path) {
   write_file_atomic(path, encode(q));
 }
@@ -209,7 +195,7 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   if (16 + static_cast<std::size_t>(header_length) + 8 > size) refuse(name, "the file is truncated");
   std::uint64_t stored;
   std::memcpy(&stored, bytes + size - 8, 8);
-  if (stored != prt_checksum(bytes, size - 8)) refuse(name, "checksum mismatch (corrupted or truncated)");
+  if (stored != checksum64(bytes, size - 8)) refuse(name, "checksum mismatch (corrupted or truncated)");
 
   JsonValue h;
   try {

@@ -1,5 +1,5 @@
 // Embree 3 behind the RayCaster interface.
-#include "polyrad/ray_caster.h"
+#include "polyrad/raycast/ray_caster.h"
 
 #include <embree3/rtcore.h>
 

@@ -1,14 +1,14 @@
 // Camera gather (camera_gather.h).
-#include "polyrad/camera_gather.h"
+#include "polyrad/render/camera_gather.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "polyrad/brdf.h"
-#include "polyrad/light_sampling.h"
-#include "polyrad/progress.h"
-#include "polyrad/sampling.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/world/light_sampling.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/util/sampling.h"
 
 namespace polyrad {
 

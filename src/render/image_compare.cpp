@@ -1,12 +1,12 @@
 // Image comparison (image_compare.h).
-#include "polyrad/image_compare.h"
+#include "polyrad/render/image_compare.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include "polyrad/error.h"
+#include "polyrad/util/error.h"
 
 namespace polyrad {
 

@@ -1,13 +1,13 @@
 // The path-traced reference (path_tracer.h).
-#include "polyrad/path_tracer.h"
+#include "polyrad/render/path_tracer.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
 
-#include "polyrad/error.h"
-#include "polyrad/progress.h"
+#include "polyrad/util/error.h"
+#include "polyrad/util/progress.h"
 
 namespace polyrad {
 

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <sstream>
 
-#include "polyrad/files.h"
-#include "polyrad/scene.h"
+#include "polyrad/scene/obj_reader.h"
+
+#include "polyrad/util/error.h"
+#include "polyrad/util/files.h"
 
 namespace polyrad {
 

@@ -2,21 +2,13 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "polyrad/files.h"
-#include "polyrad/json.h"
-#include "polyrad/scene.h"
+#include "polyrad/scene/scene_parser.h"
+
+#include "polyrad/util/files.h"
+#include "polyrad/util/hash.h"
+#include "polyrad/util/json.h"
 
 namespace polyrad {
-
-std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed) {
-  auto* p = static_cast<const unsigned char*>(data);
-  std::uint64_t h = seed;
-  for (std::size_t n = 0; n < size; ++n) {
-    h ^= p[n];
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
 
 namespace {
 

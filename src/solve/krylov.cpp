@@ -1,7 +1,7 @@
 // GMRES on (I - T) u = e, matrix-free, one colour channel at a time (solver.h, kGmres).
 #include <unsupported/Eigen/IterativeSolvers>
 
-#include "polyrad/solver.h"
+#include "polyrad/solve/solver.h"
 
 namespace polyrad {
 class ChannelSystem;

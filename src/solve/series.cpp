@@ -1,15 +1,15 @@
 // The truncated power series and its product (series.h); papers/glossy-radiosity.md, sec. 5-6.
-#include "polyrad/series.h"
+#include "polyrad/solve/series.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
 
-#include "polyrad/half.h"
-#include "polyrad/progress.h"
-#include "polyrad/reorder.h"
-#include "polyrad/solver.h"
+#include "polyrad/util/half.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/transport/reorder.h"
+#include "polyrad/solve/solver.h"
 
 namespace polyrad {
 

@@ -1,5 +1,5 @@
 // Jacobi and Gauss-Seidel on u = e + T u (solver.h).
-#include "polyrad/solver.h"
+#include "polyrad/solve/solver.h"
 
 #include <chrono>
 #include <cmath>

@@ -1,5 +1,5 @@
 // Form factors (form_factors.h). Equation numbers refer to papers/glossy-radiosity.md.
-#include "polyrad/form_factors.h"
+#include "polyrad/transport/form_factors.h"
 
 #include <omp.h>
 
@@ -11,10 +11,10 @@
 #include <span>
 #include <stdexcept>
 
-#include "polyrad/brdf.h"
-#include "polyrad/error.h"
-#include "polyrad/progress.h"
-#include "polyrad/sampling.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/util/error.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/util/sampling.h"
 
 namespace polyrad {
 

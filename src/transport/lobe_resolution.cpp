@@ -1,5 +1,5 @@
 // Whether the patches resolve each glossy lobe (lobe_resolution.h).
-#include "polyrad/lobe_resolution.h"
+#include "polyrad/transport/lobe_resolution.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // The specular transfer R_jik (specular_transfer.h); eq. 8 and 9 of papers/glossy-radiosity.md.
-#include "polyrad/specular_transfer.h"
+#include "polyrad/transport/specular_transfer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,8 +8,8 @@
 #include <numeric>
 #include <map>
 
-#include "polyrad/progress.h"
-#include "polyrad/sampling.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/util/sampling.h"
 
 namespace polyrad {
 

@@ -1,11 +1,11 @@
 // The transport operator (transport.h); equations from papers/glossy-radiosity.md.
-#include "polyrad/transport.h"
+#include "polyrad/transport/transport.h"
 
 #include <algorithm>
 #include <map>
 
-#include "polyrad/error.h"
-#include "polyrad/specular_transfer.h"
+#include "polyrad/util/error.h"
+#include "polyrad/transport/specular_transfer.h"
 
 namespace polyrad {
 

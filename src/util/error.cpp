@@ -1,4 +1,4 @@
-#include "polyrad/error.h"
+#include "polyrad/util/error.h"
 
 namespace polyrad {
 

@@ -1,4 +1,4 @@
-#include "polyrad/progress.h"
+#include "polyrad/util/progress.h"
 
 #include <unistd.h>
 

@@ -1,10 +1,10 @@
-#include "polyrad/sampling.h"
+#include "polyrad/util/sampling.h"
 
 #include <array>
 #include <cmath>
 #include <mutex>
 
-#include "polyrad/error.h"
+#include "polyrad/util/error.h"
 
 namespace polyrad {
 

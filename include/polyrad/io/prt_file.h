@@ -1,0 +1,33 @@
+// The .prt file: a precomputed series operator (series.h) on disk.
+//
+// Layout (little-endian):
+//   magic "POLYRADQ" | u32 version | u32 header length | header (JSON: metadata and the table of
+//   binary sections) | zero padding to 64 bytes | sections, each 64-byte aligned | u64 checksum
+// The checksum covers every byte before it. Writing goes to a temporary file that is renamed
+// only when complete (files.h), so an interrupted precompute leaves nothing behind. Reading maps
+// the file and refuses, with InputError naming the file, anything truncated, corrupted (checksum),
+// foreign (magic), of another version, or inconsistent (sections out of bounds, indices out of
+// range).
+//
+//   write_prt(q, "out/scene.prt");
+//   SeriesOperator q = read_prt("out/scene.prt");      // values stay in the mapping
+//
+// Cost: one pass over the file to write, one to verify the checksum when read.
+#pragma once
+
+#include <string>
+
+#include "polyrad/solve/series.h"
+
+namespace polyrad {
+
+inline constexpr std::uint32_t kPrtVersion = 1;
+
+void write_prt(const SeriesOperator& q, const std::string& path);
+SeriesOperator read_prt(const std::string& path);
+
+// Reads from memory (the fuzz target's entry point); `name` is used in error messages. data must
+// be 8-byte aligned and outlive the result, which points into it.
+SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::string& name);
+
+}  // namespace polyrad

@@ -1,0 +1,168 @@
+// The transport operator T of u = e + T u, over exactly the unknowns the scene needs.
+//
+// Unknowns (papers/glossy-radiosity.md, section 3), one RGB value each:
+//   u[i]      = B_i          diffuse radiosity of patch i, i in [0, N)      (emission included)
+//   u[N + l]  = S_{i->k}     specular radiance of link l = (i -> k), l in [0, M)
+// Radiance leaving i toward k is L_{i->k} = B_i + S_{i->k} (S = 0 where no link is stored).
+//
+// Rows (eq. 6 and 7), per colour channel c:
+//   B_i       = E_i + d_i[c] * sum_j F_ij L_{j->i}
+//   S_{i->k}  = s_i[c] * sum_j W_jik L_{j->i},   W_jik = R_jik F_ij / F_ik
+// Both are "colour of the row times a sum of scalar weights times unknowns", so T is stored as
+// one sparse matrix of float weights plus one colour per row, and a sweep is one pass over it
+// for all three channels. A purely diffuse scene has M = 0: the classic radiosity system.
+//
+//   TransportOperator t = build_transport(patches, materials, ff, &specular);
+//   Field u = t.emission();
+//   Field next(u.rows(), 3);
+//   t.apply(u, next);                      // next = T u
+//
+// Cost: memory 8 bytes per weight + 12 per row; apply() reads every weight once.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "polyrad/scene/brdf.h"
+#include "polyrad/transport/form_factors.h"
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/transport/reorder.h"
+#include "polyrad/util/sparse.h"
+#include "polyrad/transport/specular_transfer.h"
+
+namespace polyrad {
+
+// One RGB value per unknown, rows in unknown order.
+using Field = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+// Several fields side by side: row r holds [col0 rgb, col1 rgb, ...] (3 C values).
+using FieldBlock = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct Link {
+  PatchId from = 0;  // i
+  PatchId to = 0;    // k
+};
+
+// Section 4.1: the specular rows recomputed from the transfer estimator at every application
+// instead of stored. The same seeds give the same numbers; the cost moves from memory (no W) to
+// time (every sweep traces the transfer's rays again). Everything pointed to must outlive T.
+struct OnTheFlySpecular {
+  const PatchSet* patches = nullptr;
+  const std::vector<Material>* materials = nullptr;
+  const FormFactors* ff = nullptr;
+  const RayCaster* caster = nullptr;
+  SpecularOptions options;
+};
+
+// Which unknown holds what: B_i at index i, S_{i->k} at num_patches + l. Enough to read, store
+// or gather a solution without the operator itself.
+struct UnknownLayout {
+  int num_patches = 0;
+  std::vector<Link> links;               // sorted by (from, to)
+  std::vector<std::int64_t> link_start;  // links of patch i: [link_start[i], link_start[i+1])
+  // Flux per unit radiance of each unknown: pi A'_i for B_i (A' the exposed area),
+  // tau_ik = pi A'_i F_ik for S_{i->k}. In these weights every column of T sums to at most the
+  // largest albedo (section 5).
+  std::vector<double> flux_weight;
+
+  Eigen::Index size() const { return num_patches + static_cast<Eigen::Index>(links.size()); }
+  // Index of the unknown S_{i->k}, or -1 if that link carries no specular radiance.
+  Eigen::Index link_unknown(PatchId i, PatchId k) const;
+};
+
+class TransportOperator {
+ public:
+  const UnknownLayout& layout() const { return layout_; }
+  int num_patches() const { return layout_.num_patches; }
+  int num_links() const { return static_cast<int>(layout_.links.size()); }
+  Eigen::Index size() const { return layout_.size(); }
+  const std::vector<Link>& links() const { return layout_.links; }
+  Eigen::Index link_unknown(PatchId i, PatchId k) const { return layout_.link_unknown(i, k); }
+
+  const Csr<float>& weights() const { return weights_; }
+  const std::vector<Eigen::Array3f>& row_colour() const { return row_colour_; }
+  const std::vector<double>& flux_weight() const { return layout_.flux_weight; }
+
+  // e: the patches' emission in the B rows, zero elsewhere.
+  Field emission() const;
+  Field emission(const std::vector<Rgb>& patch_emission) const;
+
+  // out = T in, for one field or a block of fields. in and out must not alias.
+  void apply(const Field& in, Field& out) const;
+  void apply(const FieldBlock& in, FieldBlock& out) const;
+  // out = T_c in for one colour channel c (the operator of that channel alone).
+  void apply_channel(const double* in, double* out, int channel) const;
+  // One Gauss-Seidel sweep in place: u[r] = e[r] + (T u)[r], rows in order.
+  void gauss_seidel_sweep(const Field& e, Field& u) const;
+
+  // The flux-weighted 1-norm of a field, summed over channels (section 5), and per channel.
+  double flux_norm(const Field& f) const;
+  Eigen::Array3d flux_norm_channels(const Field& f) const;
+  // Memory of the stored operator, in bytes, by part.
+  std::size_t bytes() const;
+  std::int64_t nnz_diffuse() const { return nnz_diffuse_; }
+  std::int64_t nnz_specular() const { return weights_.nnz() - nnz_diffuse_; }
+  // The largest albedo bound over the materials that reflect (a_max of section 5).
+  double max_albedo() const { return max_albedo_; }
+  // The material with that albedo bound: the likely culprit when the iteration diverges.
+  const std::string& brightest_material() const { return brightest_material_; }
+  // A sentence naming that material when its bound exceeds 1 (empty otherwise), for messages.
+  std::string divergence_hint() const;
+  bool on_the_fly() const { return on_the_fly_ != nullptr; }
+
+ private:
+  friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
+                                           const FormFactors&, const SpecularTransfer*,
+                                           const OnTheFlySpecular*);
+  // Link rows from the estimator: out[link rows] = (e +) colour * sum w x, x = in (or out itself,
+  // in place, for Gauss-Seidel); width values per row.
+  void recompute_link_rows(const double* in, double* out, Eigen::Index width, bool in_place,
+                           const Field* e) const;
+  std::shared_ptr<const OnTheFlySpecular> on_the_fly_;
+  UnknownLayout layout_;
+  Csr<float> weights_;
+  std::vector<Eigen::Array3f> row_colour_;
+  std::vector<Rgb> patch_emission_;
+  std::int64_t nnz_diffuse_ = 0;
+  double max_albedo_ = 0.0;
+  std::string brightest_material_;
+};
+
+// T's stored rows with the unknowns renumbered (reorder.h), for the series precompute's block
+// products (SeriesOptions::reorder): row n is T's row p.order[n], its columns mapped through
+// p.position. Each row keeps its entries in T's order, so a product sums the same terms in the
+// same order as T's does and gives the same bits, permuted; the columns of a row are then not
+// ascending, so Csr::at does not apply to weights(). Memory: a second copy of T's weights.
+// An operator whose link rows are recomputed on the fly stores none to permute: the
+// constructor refuses it (InputError).
+//
+//   PermutedTransport pt(t, reverse_cuthill_mckee(t.weights()));
+//   pt.apply(x, y);                          // y = P T P^T x, x and y in the new numbering
+//   FieldBlock u = pt.to_original(y);        // u.row(p.order[n]) = y.row(n)
+class PermutedTransport {
+ public:
+  PermutedTransport(const TransportOperator& t, Permutation p);
+  Eigen::Index size() const { return static_cast<Eigen::Index>(weights_.rows); }
+  const Permutation& permutation() const { return permutation_; }
+  const Csr<float>& weights() const { return weights_; }
+  // out = (P T P^T) in; in and out must not alias.
+  void apply(const FieldBlock& in, FieldBlock& out) const;
+  // A block in this numbering, renumbered as T's unknowns.
+  FieldBlock to_original(const FieldBlock& x) const;
+
+ private:
+  Permutation permutation_;
+  Csr<float> weights_;
+  std::vector<Eigen::Array3f> row_colour_;
+};
+
+// Builds T from the form factors and, if given, the specular transfer (which also decides the
+// links). With on_the_fly the link rows are not stored but recomputed at every application.
+// Materials are indexed by Patch::material.
+TransportOperator build_transport(const PatchSet& patches, const std::vector<Material>& materials,
+                                  const FormFactors& ff, const SpecularTransfer* specular,
+                                  const OnTheFlySpecular* on_the_fly = nullptr);
+
+}  // namespace polyrad

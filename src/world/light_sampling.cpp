@@ -1,0 +1,64 @@
+// Next-event estimation's light sampler (light_sampling.h).
+#include "polyrad/world/light_sampling.h"
+
+#include <algorithm>
+
+#include "polyrad/util/error.h"
+
+namespace polyrad {
+
+LightSampler::LightSampler(const PatchSet& patches, const std::vector<double>& weight)
+    : patches_(patches), select_pdf_(patches.size(), 0.0) {
+  POLYRAD_CHECK(weight.size() == patches.size());
+  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p) {
+    if (!(weight[p] > 0.0)) continue;
+    emitters_.push_back(p);
+    total_ += weight[p];
+  }
+  double running = 0.0;
+  for (PatchId p : emitters_) {
+    running += weight[p];
+    cdf_.push_back(running / total_);
+    select_pdf_[p] = weight[p] / total_;
+  }
+  if (!cdf_.empty()) cdf_.back() = 1.0;
+}
+
+LightSample LightSampler::sample(double u_select, const Vec2& u_point) const {
+  auto e = static_cast<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), u_select) - cdf_.begin());
+  e = std::min(e, emitters_.size() - 1);
+  LightSample s;
+  s.patch = emitters_[e];
+  const Patch& light = patches_[s.patch];
+  double density = 1.0;
+  s.point = light.sample(u_point, &density, &s.uv);
+  s.area_pdf = density > 0.0 ? select_pdf_[s.patch] / (light.area * density) : 0.0;
+  return s;
+}
+
+double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
+  const Patch& q = patches_[p];
+  double select = select_pdf_[p];
+  if (q.is_triangle()) return select / q.area;
+  // Patch::sample maps the unit square bilinearly, so its area density is 1 / |du x dv|, which
+  // varies over a quad that is not a parallelogram: find y's parameters (Gauss-Newton on the
+  // bilinear map, exact in one step for a parallelogram) and evaluate it there.
+  double u = 0.5, v = 0.5;
+  for (int it = 0; it < 4; ++it) {
+    Vec3 du, dv;
+    q.tangents(u, v, &du, &dv);
+    Vec3 r = y - q.point(u, v);
+    double a = du.dot(du), b = du.dot(dv), c = dv.dot(dv);
+    double det = a * c - b * b;
+    if (!(det > 0.0)) break;
+    double ru = du.dot(r), rv = dv.dot(r);
+    u = std::clamp(u + (c * ru - b * rv) / det, 0.0, 1.0);
+    v = std::clamp(v + (a * rv - b * ru) / det, 0.0, 1.0);
+  }
+  Vec3 du, dv;
+  q.tangents(u, v, &du, &dv);
+  double jacobian = du.cross(dv).norm();
+  return jacobian > 0.0 ? select / jacobian : 0.0;
+}
+
+}  // namespace polyrad
