@@ -11,25 +11,16 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
-#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "polyrad/util/machine.h"
 #include "polyrad/util/progress.h"
+#include "polyrad/util/stats.h"
+#include "polyrad/util/timer.h"
 
 namespace polyrad::bench {
-
-inline double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-inline double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
 
 // Runs body once per iteration, timing each on its own as the iteration time (the benchmark
 // must be registered with UseManualTime()); returns the times, for medians.
@@ -37,10 +28,10 @@ template <typename Body>
 std::vector<double> timed_loop(benchmark::State& state, Body&& body) {
   std::vector<double> times;
   for (auto _ : state) {
-    auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     body();
     benchmark::ClobberMemory();
-    times.push_back(seconds_since(t0));
+    times.push_back(watch.seconds());
     state.SetIterationTime(times.back());
   }
   return times;
@@ -54,16 +45,10 @@ inline benchmark::Counter bytes_counter(double b) {
 // The machine, for the JSON's context: benchmark records the caches and the load average, not
 // the CPU's name or the OpenMP thread count.
 inline void add_machine_context(const std::string& scene) {
-  std::string model = "unknown CPU";
-  std::ifstream cpu("/proc/cpuinfo");
-  for (std::string line; std::getline(cpu, line);)
-    if (line.rfind("model name", 0) == 0) {
-      model = line.substr(line.find(':') + 2);
-      break;
-    }
-  benchmark::AddCustomContext("cpu_model", model);
+  benchmark::AddCustomContext("cpu_model", cpu_model());
   benchmark::AddCustomContext("omp_max_threads", std::to_string(omp_get_max_threads()));
-  benchmark::AddCustomContext("hardware_threads", std::to_string(std::thread::hardware_concurrency()));
+  benchmark::AddCustomContext("hardware_threads",
+                              std::to_string(std::thread::hardware_concurrency()));
   benchmark::AddCustomContext("scene", scene);
 }
 

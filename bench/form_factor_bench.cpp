@@ -1,5 +1,5 @@
-// Issue 2's benchmark: the form factors of the Cornell box, and how close their shadow rays come
-// to what Embree can cast on the same scene.
+// The form-factor benchmark: the form factors of the Cornell box, and how close their shadow rays
+// come to what Embree can cast on the same scene.
 //
 //   form_factors          compute_form_factors as the pipeline calls it (exposed areas, pair
 //                         culling, contour integrals, quadrature and shadow rays), and the
@@ -40,20 +40,17 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "polyrad/transport/form_factors.h"
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
-#include "polyrad/util/sampling.h"
 #include "polyrad/scene/scene.h"
+#include "polyrad/transport/form_factors.h"
+#include "polyrad/util/sampling.h"
 
 namespace polyrad {
 
 const std::string kScene = std::string(POLYRAD_SCENES_DIR) + "/cornell-box.json";
 
 namespace {
-
-using bench::median;
-using bench::seconds_since;
 
 // CPU time of the whole process (every thread): on a loaded machine the wall time of a kernel
 // includes the slices other processes took, its CPU time does not.
@@ -114,18 +111,18 @@ void form_factors(benchmark::State& state) {
   FormFactors ff;
   std::vector<double> t_ff, t_exposure;
   for (auto _ : state) {
-    auto t0 = std::chrono::steady_clock::now();
+    Stopwatch t0;
     ff = run_form_factors(s);
     benchmark::DoNotOptimize(ff.f.value.data());
     benchmark::ClobberMemory();
-    t_ff.push_back(seconds_since(t0));
+    t_ff.push_back(t0.seconds());
     state.SetIterationTime(t_ff.back());
     // The exposed-area probes on their own (a part of the above), outside the iteration time.
-    t0 = std::chrono::steady_clock::now();
+    t0.restart();
     std::vector<double> area =
         exposed_areas(s.patches, *s.caster, options.exposure_points, options.exposure_refined);
     benchmark::DoNotOptimize(area.data());
-    t_exposure.push_back(seconds_since(t0));
+    t_exposure.push_back(t0.seconds());
   }
   const double seconds = median(t_ff);
   common_counters(state, s, ff);
@@ -248,19 +245,19 @@ void form_factors_vs_bare(benchmark::State& state) {
   for (auto _ : state) {
     auto run_ff = [&] {
       const double c0 = process_cpu_seconds();
-      auto t0 = std::chrono::steady_clock::now();
+      Stopwatch t0;
       ff = run_form_factors(s);
       benchmark::DoNotOptimize(ff.f.value.data());
       benchmark::ClobberMemory();
-      t_ff.push_back(seconds_since(t0));
+      t_ff.push_back(t0.seconds());
       cpu_ff.push_back(process_cpu_seconds() - c0);
     };
     auto run_bare = [&] {
       const double c0 = process_cpu_seconds();
-      auto t0 = std::chrono::steady_clock::now();
+      Stopwatch t0;
       blocked = bare_occlusion(s, pool, rays);
       benchmark::DoNotOptimize(blocked);
-      t_bare.push_back(seconds_since(t0));
+      t_bare.push_back(t0.seconds());
       cpu_bare.push_back(process_cpu_seconds() - c0);
     };
     if (ff_first) {

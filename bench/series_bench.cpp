@@ -1,4 +1,4 @@
-// Issue 4's benchmarks: the precomputed power series and the single product that relights.
+// The series benchmarks: the precomputed power series and the single product that relights.
 //
 //   triad                  the reference kernel: a STREAM triad a = b + s c over floats, OpenMP
 //                          like the product, at sizes from in-cache to far beyond
@@ -33,9 +33,9 @@
 
 #include "bench_common.h"
 #include "polyrad/render/camera_gather.h"
-#include "polyrad/transport/system.h"
-#include "polyrad/solve/series.h"
+#include "polyrad/solve/series_precompute.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
 
 namespace polyrad {
 
@@ -46,8 +46,6 @@ namespace {
 constexpr double kCacheBytes = 32.0 * 1024 * 1024;  // beyond this the bandwidth target applies
 
 using bench::bytes_counter;
-using bench::median;
-using bench::seconds_since;
 using bench::timed_loop;
 
 // ---- the reference kernel --------------------------------------------------------------------
@@ -56,7 +54,8 @@ using bench::timed_loop;
 // schedule as the triad), so that pages sit where the work is.
 class TriadArrays {
  public:
-  explicit TriadArrays(std::int64_t n) : n_(n), a_(new float[n]), b_(new float[n]), c_(new float[n]) {
+  explicit TriadArrays(std::int64_t n)
+      : n_(n), a_(new float[n]), b_(new float[n]), c_(new float[n]) {
     float* a = a_.get();
     float* b = b_.get();
     float* c = c_.get();
@@ -110,9 +109,7 @@ RadiositySystem& mirror_cube(int patch_size = 0) {
   static std::map<int, std::unique_ptr<RadiositySystem>> cache;
   auto& sys = cache[patch_size];
   if (!sys) {
-    PipelineOptions o;
-    o.patch_size = patch_size;
-    sys = build_system(load_scene(kScene), o);
+    sys = build_system(World::load(kScene, {.patch_size = static_cast<double>(patch_size)}));
   }
   return *sys;
 }
@@ -127,10 +124,9 @@ const Gather& gather_at(int patch_size, int width) {
   auto& g = cache[{patch_size, width}];
   if (!g) {
     RadiositySystem& sys = mirror_cube(patch_size);
-    Camera camera = sys.scene.camera;
+    Camera camera = sys.scene().camera;
     camera.width = camera.height = width;
-    g = std::make_unique<Gather>(
-        build_gather(camera, sys.patches, sys.scene.materials, *sys.caster, sys.transport, {}));
+    g = std::make_unique<Gather>(build_gather(*sys.world, camera, sys.transport.layout()));
   }
   return *g;
 }
@@ -174,12 +170,13 @@ class ProductFixture : public benchmark::Fixture {
       // speed depends on, no longer changes.
       o.order = 20;
       q = std::make_unique<SeriesOperator>(
-          precompute_series(sys.transport, sys.patches, sys.scene, &gather_at(0, width), o));
+          precompute_series(sys.transport, *sys.world, o, &gather_at(0, width)));
     }
     op = q.get();
     e = op->column_emission();
     out.assign(3 * static_cast<size_t>(op->rows()), 0.0f);
-    bytes = static_cast<double>(op->bytes()) + 3.0 * sizeof(float) * static_cast<double>(op->cols() + op->rows());
+    bytes = static_cast<double>(op->bytes()) +
+            3.0 * sizeof(float) * static_cast<double>(op->cols() + op->rows());
     arrays = std::make_unique<TriadArrays>(static_cast<std::int64_t>(bytes / (3 * sizeof(float))));
   }
   void TearDown(const benchmark::State&) override { arrays.reset(); }
@@ -195,14 +192,14 @@ class ProductFixture : public benchmark::Fixture {
 BENCHMARK_DEFINE_F(ProductFixture, product)(benchmark::State& state) {
   std::vector<double> tp, tt;
   for (auto _ : state) {
-    auto t0 = std::chrono::steady_clock::now();
+    Stopwatch t0;
     op->apply(e.data(), out.data());
     benchmark::DoNotOptimize(out.data());
     benchmark::ClobberMemory();
-    tp.push_back(seconds_since(t0));
-    t0 = std::chrono::steady_clock::now();
+    tp.push_back(t0.seconds());
+    t0.restart();
     arrays->run(3.0f);
-    tt.push_back(seconds_since(t0));
+    tt.push_back(t0.seconds());
     state.SetIterationTime(tp.back());
   }
   const double product_bps = bytes / median(tp), triad_bps = arrays->bytes() / median(tt);
@@ -234,7 +231,7 @@ class PrecomputeFixture : public benchmark::Fixture {
  public:
   void SetUp(const benchmark::State&) override {
     sys = &mirror_cube();
-    gather = &gather_at(0, sys->scene.camera.width);
+    gather = &gather_at(0, sys->scene().camera.width);
   }
   RadiositySystem* sys = nullptr;
   const Gather* gather = nullptr;
@@ -245,7 +242,7 @@ BENCHMARK_DEFINE_F(PrecomputeFixture, precompute)(benchmark::State& state) {
   o.order = static_cast<int>(state.range(0));
   SeriesOperator q;
   std::vector<double> times = timed_loop(state, [&] {
-    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, o);
+    q = precompute_series(sys->transport, *sys->world, o, gather);
     benchmark::DoNotOptimize(q.values());
   });
   state.counters["median_ms"] = 1e3 * median(times);
@@ -255,7 +252,8 @@ BENCHMARK_DEFINE_F(PrecomputeFixture, precompute)(benchmark::State& state) {
   state.counters["bytes"] = bytes_counter(static_cast<double>(q.bytes()));
   state.counters["apriori_bound"] = q.report.apriori_bound;
   state.counters["aposteriori_estimate"] = q.report.aposteriori_estimate;
-  state.SetLabel("view " + std::to_string(q.width) + "x" + std::to_string(q.height) + ", patch basis");
+  state.SetLabel("view " + std::to_string(q.width) + "x" + std::to_string(q.height) +
+                 ", patch basis");
 }
 BENCHMARK_REGISTER_F(PrecomputeFixture, precompute)
     ->ArgNames({"order"})
@@ -278,14 +276,14 @@ BENCHMARK_DEFINE_F(PrecomputeFixture, precompute_reorder)(benchmark::State& stat
   SeriesOperator q;
   std::vector<double> tn, tr;
   for (auto _ : state) {
-    auto t0 = std::chrono::steady_clock::now();
-    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, plain);
+    Stopwatch t0;
+    q = precompute_series(sys->transport, *sys->world, plain, gather);
     benchmark::DoNotOptimize(q.values());
-    tn.push_back(seconds_since(t0));
-    t0 = std::chrono::steady_clock::now();
-    q = precompute_series(sys->transport, sys->patches, sys->scene, gather, rcm);
+    tn.push_back(t0.seconds());
+    t0.restart();
+    q = precompute_series(sys->transport, *sys->world, rcm, gather);
     benchmark::DoNotOptimize(q.values());
-    tr.push_back(seconds_since(t0));
+    tr.push_back(t0.seconds());
     state.SetIterationTime(tn.back() + tr.back());
   }
   state.counters["none_median_s"] = median(tn);
@@ -330,7 +328,7 @@ const Image& reference_image(int patch_size) {
   RadiositySystem& sys = mirror_cube(patch_size);
   const TransportOperator& t = sys.transport;
   SolveResult r = solve(t, t.emission(), {.method = SolveMethod::kGaussSeidel, .tolerance = 1e-12});
-  return cache[patch_size] = apply_gather(gather_at(patch_size, sys.scene.camera.width), r.u);
+  return cache[patch_size] = apply_gather(gather_at(patch_size, sys.scene().camera.width), r.u);
 }
 
 const RelightCase& relight_case(int patch_size, SeriesBasis basis, int tolerance_exponent) {
@@ -340,14 +338,15 @@ const RelightCase& relight_case(int patch_size, SeriesBasis basis, int tolerance
   c = std::make_unique<RelightCase>();
   RadiositySystem& sys = mirror_cube(patch_size);
   const TransportOperator& t = sys.transport;
-  const Gather& g = gather_at(patch_size, sys.scene.camera.width);
+  const Gather& g = gather_at(patch_size, sys.scene().camera.width);
   const Image& reference = reference_image(patch_size);
   SeriesOptions o = view_options(basis);
   o.tolerance = std::pow(10.0, -tolerance_exponent);
-  c->q = precompute_series(t, sys.patches, sys.scene, &g, o);
+  c->q = precompute_series(t, *sys.world, o, &g);
   c->series_error = image_error(product_image(c->q), reference);
   for (int n = 1; n <= kMaxSweeps; ++n) {
-    SolveResult r = solve(t, t.emission(), {.method = SolveMethod::kGaussSeidel, .fixed_sweeps = n});
+    SolveResult r =
+        solve(t, t.emission(), {.method = SolveMethod::kGaussSeidel, .fixed_sweeps = n});
     c->sweeps = n;
     c->iterative_error = image_error(apply_gather(g, r.u), reference);
     if (c->iterative_error <= c->series_error) break;
@@ -363,26 +362,26 @@ class RelightFixture : public benchmark::Fixture {
     tolerance_exponent = static_cast<int>(state.range(2));
     c = &relight_case(patch_size, basis, tolerance_exponent);
     sys = &mirror_cube(patch_size);
-    gather = &gather_at(patch_size, sys->scene.camera.width);
+    gather = &gather_at(patch_size, sys->scene().camera.width);
   }
   // Median of single products, timed one by one (the way `polyrad relight` reports it).
   double product_median(int repeats) const {
     std::vector<float> e = c->q.column_emission(), out(3 * static_cast<size_t>(c->q.rows()));
     std::vector<double> times;
     for (int r = 0; r < repeats; ++r) {
-      auto t0 = std::chrono::steady_clock::now();
+      Stopwatch t0;
       c->q.apply(e.data(), out.data());
       benchmark::DoNotOptimize(out.data());
       benchmark::ClobberMemory();
-      times.push_back(seconds_since(t0));
+      times.push_back(t0.seconds());
     }
     return median(times);
   }
   std::string label() const {
-    return patch_size_name(patch_size) + ", " + std::to_string(sys->patches.size()) +
-           " patches, " + series_basis_name(basis) + " basis, tolerance 1e-" +
-           std::to_string(tolerance_exponent) + ", K " + std::to_string(c->q.report.order) +
-           ", " + std::to_string(c->sweeps) + " Gauss-Seidel sweeps";
+    return patch_size_name(patch_size) + ", " + std::to_string(sys->patches().size()) +
+           " patches, " + enum_name(basis) + " basis, tolerance 1e-" +
+           std::to_string(tolerance_exponent) + ", K " + std::to_string(c->q.report.order) + ", " +
+           std::to_string(c->sweeps) + " Gauss-Seidel sweeps";
   }
 
   int patch_size = 0;
@@ -408,7 +407,7 @@ BENCHMARK_DEFINE_F(RelightFixture, relight_product)(benchmark::State& state) {
   state.counters["median_ms"] = 1e3 * median(times);
   state.counters["bytes_per_second"] = bytes_counter(bytes / median(times));
   state.counters["image_error"] = c->series_error;
-  state.counters["patches"] = static_cast<double>(sys->patches.size());
+  state.counters["patches"] = static_cast<double>(sys->patches().size());
   state.SetLabel(label());
 }
 BENCHMARK_REGISTER_F(RelightFixture, relight_product)
@@ -430,7 +429,7 @@ BENCHMARK_DEFINE_F(RelightFixture, iterative_same_error)(benchmark::State& state
     benchmark::DoNotOptimize(img.rgb.data());
   });
   const double product = product_median(201);
-  state.counters["patches"] = static_cast<double>(sys->patches.size());
+  state.counters["patches"] = static_cast<double>(sys->patches().size());
   state.counters["sweeps"] = c->sweeps;
   state.counters["image_error"] = c->iterative_error;
   state.counters["series_image_error"] = c->series_error;

@@ -26,10 +26,10 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/util/half.h"
 #include "polyrad/io/prt_file.h"
-#include "polyrad/util/hash.h"
 #include "polyrad/scene/scene.h"
+#include "polyrad/util/half.h"
+#include "polyrad/util/hash.h"
 
 namespace polyrad::fuzz {
 
@@ -132,10 +132,10 @@ inline void check_operator(const SeriesOperator& q, std::size_t file_size) {
 struct AlignedBytes {
   explicit AlignedBytes(const std::string& bytes)
       : size(bytes.size()),
-        data(static_cast<unsigned char*>(::operator new(size, std::align_val_t{64}))) {
+        data(static_cast<unsigned char*>(::operator new (size, std::align_val_t{64}))) {
     if (size) std::memcpy(data, bytes.data(), size);
   }
-  ~AlignedBytes() { ::operator delete(data, std::align_val_t{64}); }
+  ~AlignedBytes() { ::operator delete (data, std::align_val_t{64}); }
   AlignedBytes(const AlignedBytes&) = delete;
   AlignedBytes& operator=(const AlignedBytes&) = delete;
   std::size_t size;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Radiosity against a path-traced reference of the same scene, camera and materials, at several
-# patch sizes (issue 5). For each scene: a high-sample reference (cached), then radiosity in
+# patch sizes. For each scene: a high-sample reference (cached), then radiosity in
 # smooth and flat shading at each patch size, compared region by region; a markdown table and
 # side-by-side pictures under DIR.
 #
@@ -43,10 +43,10 @@ for scene in "${scenes[@]}"; do
 import json, sys
 out, scene, size, shading = sys.argv[1:]
 r = json.load(open(f"{out}/{scene}-p{size}-{shading}.json"))
-c = json.load(open(f"{out}/{scene}-p{size}-{shading}-cmp.json"))
+c = json.load(open(f"{out}/{scene}-p{size}-{shading}-cmp.json"))["comparison"]
 worst = max(c["regions"], key=lambda g: abs(g["luminance_difference"]))
-total = sum(r["seconds"].values())
-print(f"| {scene} | {size} | {r['patches']} | {shading} | {c['relative_rmse']:.3f} | "
+total = r["seconds"]["total"]
+print(f"| {scene} | {size} | {r['system']['patches']} | {shading} | {c['relative_rmse']:.3f} | "
       f"{c['mean_relative_error']:.3f} | {c['relative_l1']:.3f} | "
       f"{worst['name']} {100 * worst['luminance_difference']:+.1f}% | {total:.1f} |")
 PY

@@ -2,7 +2,7 @@
 # Builds Release and runs the Google Benchmark programs (docs/benchmarks.md): each writes its
 # JSON to out/bench/<name>.json and its console table to out/bench/<name>.txt (and stdout);
 # then scripts/bench_summary.py turns the JSON into out/bench/summary.md, with PASS/FAIL against
-# the targets of issues 2, 3 and 4 (form_factor_bench writes form_factors.json and .txt). The
+# the targets of the form factors, the transport and the series (form_factor_bench writes form_factors.json and .txt). The
 # targets are reported, never enforced: the exit status is that of the build and the runs.
 #
 #   ./scripts/bench.sh                                  # everything (about 15 minutes)

@@ -6,8 +6,8 @@
                                               # writes out/bench/summary.md
 
 Figures are medians of iterations timed one by one (the *median_ms* and *_per_second counters)
-rather than benchmark's means, which a burst of load from elsewhere inflates. Each target of
-issues 2, 3 and 4 gets PASS or FAIL with its margin; the exit status is 0 either way, because a
+rather than benchmark's means, which a burst of load from elsewhere inflates. Each target
+gets PASS or FAIL with its margin; the exit status is 0 either way, because a
 benchmark reports and a test enforces (docs/benchmarks.md). Standard library only.
 """
 import json
@@ -16,9 +16,9 @@ import platform
 import sys
 import time
 
-CACHE_BYTES = 32 * 1024 * 1024  # beyond this the bandwidth target applies (issue 4)
+CACHE_BYTES = 32 * 1024 * 1024  # beyond this the bandwidth target applies
 
-# name, comparison, limit: the targets of issues 2, 3 and 4.
+# name, comparison, limit: the targets.
 RAY_RATIO_LIMIT = 0.7   # form-factor shadow rays/s / bare occlusion rays/s, at least
 FF_SECONDS_LIMIT = 30.0  # form factors of the Cornell box at patch size 25, seconds, below
 FF_SECONDS_PATCH_SIZE = 25
@@ -133,7 +133,7 @@ def machine(reports):
 
 
 def transport_section(rep, verdicts):
-    out = ["## Glossy operator against the classic system (issue 3, `transport_bench`)", ""]
+    out = ["## Glossy operator against the classic system (`transport_bench`)", ""]
     if rep is None:
         return out + ["(no transport.json)", ""]
     sweeps = {(a["patch_size"], a["operator"]): e for a, e in runs(rep, "sweep") if not failed(e)}
@@ -200,7 +200,7 @@ def transport_section(rep, verdicts):
 
 
 def series_section(rep, verdicts):
-    out = ["## The precomputed series (issue 4, `series_bench`)", ""]
+    out = ["## The precomputed series (`series_bench`)", ""]
     if rep is None:
         return out + ["(no series.json)", ""]
     llc = max((c["size"] for c in rep["context"].get("caches", [])), default=0)
@@ -286,7 +286,7 @@ def series_section(rep, verdicts):
 
 
 def form_factor_section(rep, verdicts):
-    out = ["## Form factors against a bare occlusion loop (issue 2, `form_factor_bench`)", ""]
+    out = ["## Form factors against a bare occlusion loop (`form_factor_bench`)", ""]
     if rep is None:
         return out + ["(no form_factors.json)", ""]
     alone = {a["patch_size"]: e for a, e in runs(rep, "form_factors") if not failed(e)}

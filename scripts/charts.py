@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The charts of a polyrad sweep (issue 6): speed against accuracy, drawn from DIR/sweep.csv.
+"""The charts of a polyrad sweep: speed against accuracy, drawn from DIR/sweep.csv.
 
     /usr/bin/python3 scripts/charts.py DIR [--out OUTDIR]
 

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Coarse patches against a sharp lobe (issue 7, METHOD.md section 9). scenes/stability/sharp-lobe
+# Coarse patches against a sharp lobe (papers/glossy-radiosity.md). scenes/stability/sharp-lobe
 # has a GGX tall block at alpha 0.05 (and a short block at 0.3); for contrast the same scene with
 # the tall block at alpha 0.3 is made here. Each is rendered by radiosity at several patch sizes
 # and compared with its own path-traced reference. The table says, per patch size, whether
 # polyrad warned that the patches smear the tall block's lobe, and how far the image is from the
 # reference: overall, and on the tall block, the floor (where its reflected light lands) and the
-# short block, by the region's mean (as `polyrad compare` reports it) and by its relative L1.
+# short block, by the region's mean and by its relative L1 (both as `polyrad compare` reports them).
 # The transfer conserves flux, so a smeared lobe moves light within a region more than it
 # changes the region's mean: the L1 columns are the ones that can show it.
 #
@@ -33,9 +33,7 @@ mkdir -p "$out"
 light_samples="${LIGHT_SAMPLES:-4}"
 
 # The scenes: sharp-lobe as shipped, and its contrast with the tall block rough; mesh paths made
-# absolute so that both can live in DIR. Also, per scene, the object ids per pixel: every surface
-# black and object n emitting n + 1, seen through pixel centres in flat shading (the rays
-# `polyrad compare` labels its regions with).
+# absolute so that both can live in DIR.
 /usr/bin/python3 - "$root/scenes/stability/sharp-lobe.json" "$out" <<'PY'
 import copy, json, os, sys
 src, out = sys.argv[1:]
@@ -47,11 +45,6 @@ rough = copy.deepcopy(s)
 next(o for o in rough["objects"] if o["name"] == "tall_block")["material"] = "rough"
 for name, scene in (("sharp", s), ("rough", rough)):
     json.dump(scene, open(f"{out}/{name}.json", "w"), indent=1)
-    ids = copy.deepcopy(scene)
-    ids["materials"] = {"black": {"type": "diffuse", "reflectance": [0, 0, 0]}}
-    for n, o in enumerate(ids["objects"]):
-        o["material"], o["emission"] = "black", [n + 1, 0, 0]
-    json.dump(ids, open(f"{out}/{name}-ids.json", "w"), indent=1)
 PY
 
 table="$out/lobe.md"
@@ -78,66 +71,38 @@ for variant in sharp rough; do
     "$POLYRAD" --quiet render "$scene" --method pathtrace --spp "$spp" -o "$ref" \
       --report "$out/$variant-pt$spp.json"
   fi
-  "$POLYRAD" --quiet render "$out/$variant-ids.json" --classic --diffuse flat --pixel-grid 1 \
-    -o "$out/$variant-ids.pfm" 2>/dev/null
   for size in "${sizes[@]}"; do
     base="$out/$variant-p$size"
     "$POLYRAD" --quiet render "$scene" --patch-size "$size" --tolerance 1e-6 -o "$base.pfm" \
       --light-samples "$light_samples" --report "$base.json" 2> "$base.stderr"
     "$POLYRAD" --quiet compare "$base.pfm" "$ref" --scene "$scene" --report "$base-cmp.json" \
       --side-by-side "$base-compare.png" >/dev/null
-    /usr/bin/python3 - "$out" "$variant" "$size" "$ref" >> "$table.tmp" <<'PY'
-import array, json, sys
-out, variant, size, ref = sys.argv[1:]
+    /usr/bin/python3 - "$out" "$variant" "$size" >> "$table.tmp" <<'PY'
+import json, sys
+out, variant, size = sys.argv[1:]
 base = f"{out}/{variant}-p{size}"
-
-def pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        assert float(f.readline()) < 0  # little-endian
-        v = array.array("f")
-        v.frombytes(f.read(12 * w * h))
-    return w, h, v
-
-w, h, a = pfm(f"{base}.pfm")
-_, _, b = pfm(ref)
-_, _, ids = pfm(f"{out}/{variant}-ids.pfm")
-label = [round(ids[3 * p]) - 1 for p in range(w * h)]
-def region_l1(obj):
-    # Pixels whose 3 x 3 neighbourhood sees the same object, as `polyrad compare` keeps them.
-    diff = total = 0.0
-    for y in range(1, h - 1):
-        for x in range(1, w - 1):
-            if any(label[(y + dy) * w + x + dx] != obj for dx in (-1, 0, 1) for dy in (-1, 0, 1)):
-                continue
-            for c in range(3):
-                i = 3 * (y * w + x) + c
-                diff += abs(a[i] - b[i])
-                total += abs(b[i])
-    return diff / total
-
 r = json.load(open(f"{base}.json"))
-c = json.load(open(f"{base}-cmp.json"))
-names = [o["name"] for o in json.load(open(f"{out}/{variant}-ids.json"))["objects"]]
-tall = next(x for x in r["lobe_resolution"] if x["object"] == "tall_block")
+c = json.load(open(f"{base}-cmp.json"))["comparison"]
+tall = next(x for x in r["system"]["lobe_resolution"] if x["object"] == "tall_block")
 warned = any(x["object"] == "tall_block" for x in r["warnings"])
-means = {g["name"]: g["luminance_difference"] for g in c["regions"]}
+regions = {g["name"]: g for g in c["regions"]}
 def region(name):
-    return f"{100 * means[name]:+.1f}%, {region_l1(names.index(name)):.3f}"
+    g = regions[name]
+    return f"{100 * g['luminance_difference']:+.1f}%, {g['relative_l1']:.3f}"
 alpha = tall["lobe"].split()[-1]
-print(f"| alpha {alpha} | {size} | {r['patches']} | {tall['patch_angle_degrees']:.1f} vs "
+print(f"| alpha {alpha} | {size} | {r['system']['patches']} | {tall['patch_angle_degrees']:.1f} vs "
       f"{tall['lobe_width_degrees']:.1f} deg, {'**warning**' if warned else 'no warning'} | "
       f"{c['relative_l1']:.3f} | {c['relative_rmse']:.3f} | {region('tall_block')} | "
-      f"{region('floor')} | {region('short_block')} | {sum(r['seconds'].values()):.1f} |")
+      f"{region('floor')} | {region('short_block')} | {r['seconds']['total']:.1f} |")
 PY
   done
   notes+=("$(/usr/bin/python3 - "$variant" "$out/$variant-pt$spp.json" <<'PY'
 import json, sys
 variant, path = sys.argv[1:]
 r = json.load(open(path))
-print(f"Reference ({variant} tall block): {r['spp']} spp in {sum(r['seconds'].values()):.0f} s, "
-      f"mean relative standard error {r['mean_relative_standard_error']:.3f}.")
+pt = r["pathtrace"]
+print(f"Reference ({variant} tall block): {pt['spp']} spp in {r['seconds']['total']:.0f} s, "
+      f"mean relative standard error {pt['mean_relative_standard_error']:.3f}.")
 PY
 )")
 done

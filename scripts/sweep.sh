@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Speed against accuracy (issue 6): runs `polyrad sweep` with the given arguments, then draws the
+# Speed against accuracy: runs `polyrad sweep` with the given arguments, then draws the
 # charts from the sweep's CSV with scripts/charts.py.
 #
 #   ./scripts/sweep.sh SCENE --out DIR [sweep flags, e.g. --quick]

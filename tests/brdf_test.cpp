@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "polyrad/util/sampling.h"
+#include "statistics.h"
 
 namespace polyrad {
 namespace {
@@ -295,97 +296,9 @@ Estimate lobe_pdf_quadrature(const Material& m, const Vec3& wo) {
 
 // ---- statistics ------------------------------------------------------------------------------
 
-// Regularised upper incomplete gamma Q(a, x) (Numerical Recipes 6.2): series below a + 1,
-// Lentz's continued fraction above.
-double gamma_q(double a, double x) {
-  if (x <= 0.0) return 1.0;
-  double front = std::exp(-x + a * std::log(x) - std::lgamma(a));
-  if (x < a + 1.0) {
-    double ap = a, del = 1.0 / a, sum = del;
-    for (int n = 0; n < 100000 && std::abs(del) > std::abs(sum) * 1e-16; ++n) {
-      ap += 1.0;
-      del *= x / ap;
-      sum += del;
-    }
-    return std::max(0.0, 1.0 - sum * front);
-  }
-  const double tiny = 1e-300;
-  double b = x + 1.0 - a, cf = 1.0 / tiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 100000; ++i) {
-    double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < tiny) d = tiny;
-    cf = b + an / cf;
-    if (std::abs(cf) < tiny) cf = tiny;
-    d = 1.0 / d;
-    double del = d * cf;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-16) break;
-  }
-  return front * h;
-}
-
-struct ChiSquare {
-  double statistic = 0.0, p_value = 1.0;
-  int dof = 0;
-};
-
-// Pearson's test of counts against cell probabilities (summing to 1) for n draws. Cells expected
-// to hold fewer than 5 are pooled; a pool still below 5 joins the smallest remaining cell.
-ChiSquare chi_square(const std::vector<double>& prob, const std::vector<long>& count, long n) {
-  std::vector<double> e;
-  std::vector<double> o;
-  double pool_e = 0.0, pool_o = 0.0;
-  for (size_t i = 0; i < prob.size(); ++i) {
-    double ei = std::max(0.0, prob[i]) * n;
-    if (ei < 5.0) {
-      pool_e += ei;
-      pool_o += count[i];
-    } else {
-      e.push_back(ei);
-      o.push_back(static_cast<double>(count[i]));
-    }
-  }
-  if (pool_e >= 5.0 || e.empty()) {
-    e.push_back(pool_e);
-    o.push_back(pool_o);
-  } else {
-    size_t k = std::min_element(e.begin(), e.end()) - e.begin();
-    e[k] += pool_e;
-    o[k] += pool_o;
-  }
-  ChiSquare r;
-  for (size_t i = 0; i < e.size(); ++i) {
-    if (e[i] <= 0.0) {
-      if (o[i] > 0.0) r.statistic = std::numeric_limits<double>::infinity();
-      continue;
-    }
-    r.statistic += (o[i] - e[i]) * (o[i] - e[i]) / e[i];
-  }
-  r.dof = static_cast<int>(e.size()) - 1;
-  r.p_value = std::isfinite(r.statistic) ? gamma_q(0.5 * r.dof, 0.5 * r.statistic) : 0.0;
-  return r;
-}
-
 // Every chi-square test below must reach this p-value. 56 of them run, so the chance that a
 // correct sampler fails any is about 6e-4 (and the seeds are fixed, so a pass stays a pass).
 constexpr double kChiSquareSignificance = 1e-5;
-
-// Running mean and standard error.
-struct Moments {
-  double n = 0.0, sum = 0.0, sum2 = 0.0;
-  void add(double x) {
-    n += 1.0;
-    sum += x;
-    sum2 += x * x;
-  }
-  double mean() const { return sum / n; }
-  double std_error() const {
-    double m = mean();
-    return std::sqrt(std::max(0.0, sum2 / n - m * m) / n);
-  }
-};
 
 // Grids of valid parameters.
 const std::vector<double> kRoughness = {0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0};
@@ -402,11 +315,11 @@ Material phong(double n, double d = 0.0, double s = 1.0) {
 // ---- the helpers themselves ------------------------------------------------------------------
 
 // Reference values from mpmath.gammainc(a, x, inf, regularized=True).
-TEST(BrdfTestHelpers, GammaQMatchesKnownValues) {
-  EXPECT_NEAR(gamma_q(1.0, 2.0), std::exp(-2.0), 1e-14);            // Q(1, x) = e^-x
-  EXPECT_NEAR(gamma_q(5.0, 9.153519), 0.0500000008247323, 1e-12);   // chi2(10), 95%
-  EXPECT_NEAR(gamma_q(199.5, 223.815), 0.0465269716662569, 1e-12);  // continued fraction
-  EXPECT_NEAR(gamma_q(199.5, 180.0), 0.919917784183903, 1e-12);     // series
+TEST(TestStatistics, GammaQMatchesKnownValues) {
+  EXPECT_NEAR(test::gamma_q(1.0, 2.0), std::exp(-2.0), 1e-14);            // Q(1, x) = e^-x
+  EXPECT_NEAR(test::gamma_q(5.0, 9.153519), 0.0500000008247323, 1e-12);   // chi2(10), 95%
+  EXPECT_NEAR(test::gamma_q(199.5, 223.815), 0.0465269716662569, 1e-12);  // continued fraction
+  EXPECT_NEAR(test::gamma_q(199.5, 180.0), 0.919917784183903, 1e-12);     // series
 }
 
 // The quadrature integrates cos/pi to 1 and 1 to 2 pi over the hemisphere in every chart and
@@ -489,7 +402,7 @@ TEST(Brdf, LobeAndBsdfAreReciprocal) {
   Rng rng(11, 2);
   for (const Material& m : materials) {
     SCOPED_TRACE(testing::Message()
-                 << material_type_name(m.type) << " alpha " << m.roughness << " n " << m.exponent);
+                 << enum_name(m.type) << " alpha " << m.roughness << " n " << m.exponent);
     int bad = 0, nonzero = 0;
     for (int i = 0; i < 4000; ++i) {
       Vec3 a = uniform_hemisphere(rng.uniform2());
@@ -537,8 +450,8 @@ TEST(Brdf, LobeAlbedoNeverAboveOneAndLobeAlbedoAgrees) {
   double worst_quad_error = 0.0, max_albedo = 0.0, max_pdf = 0.0, worst_midpoint = 0.0;
   for (const Material& m : materials) {
     for (double th : kThetaDeg) {
-      SCOPED_TRACE(testing::Message() << material_type_name(m.type) << " alpha " << m.roughness
-                                      << " n " << m.exponent << " theta_o " << th);
+      SCOPED_TRACE(testing::Message() << enum_name(m.type) << " alpha " << m.roughness << " n "
+                                      << m.exponent << " theta_o " << th);
       Vec3 wo = polar_dir(th);
       Estimate q = lobe_albedo_quadrature(m, wo);
       Estimate p = lobe_pdf_quadrature(m, wo);
@@ -584,7 +497,7 @@ TEST(Brdf, LobeAlbedoNeverAboveOneAndLobeAlbedoAgrees) {
 // ---- sampling --------------------------------------------------------------------------------
 
 struct BinnedTest {
-  ChiSquare chi;
+  test::ChiSquare chi;
   double prob_total = 0.0;  // integral of the density over the hemisphere
   double bins_vs_whole = 0.0;
 };
@@ -619,7 +532,7 @@ BinnedTest binned_test(const Chart& ch, const Draw& draw, const Density& density
     int j = std::clamp(static_cast<int>((phi + kPi) / (2 * kPi) * np), 0, np - 1);
     ++count[static_cast<size_t>(i * np + j)];
   }
-  r.chi = chi_square(prob, count, n);
+  r.chi = test::chi_square(prob, count, n);
   return r;
 }
 
@@ -641,11 +554,11 @@ TEST(Brdf, LobeSamplingMatchesPdf) {
   double min_p = 1.0;
   for (const Case& cs : cases) {
     const Material& m = cs.m;
-    SCOPED_TRACE(testing::Message() << material_type_name(m.type) << " alpha " << m.roughness
-                                    << " n " << m.exponent << " theta_o " << cs.theta);
+    SCOPED_TRACE(testing::Message() << enum_name(m.type) << " alpha " << m.roughness << " n "
+                                    << m.exponent << " theta_o " << cs.theta);
     Vec3 wo = polar_dir(cs.theta);
     Rng rng(21, static_cast<std::uint64_t>(index++));
-    Moments weight;
+    test::Moments weight;
     int bad_weight = 0;
     auto draw = [&](Vec3* wi) {
       LobeSample ls = m.lobe_sample(wo, rng.uniform2());
@@ -734,7 +647,7 @@ TEST(Brdf, BsdfSamplingMatchesPdf) {
         bs = m.sample(wo, u_select, rng.uniform2());
         n_delta += bs.delta;
       }
-      Moments w[3];
+      test::Moments w[3];
       int bad = 0;
       for (const BsdfSample& bs : samples) {
         for (int k = 0; k < 3; ++k) w[k].add(bs.weight[k]);

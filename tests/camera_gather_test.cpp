@@ -2,9 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include "polyrad/solve/solver.h"
 #include "polyrad/transport/system.h"
 #include "polyrad/util/sampling.h"
-#include "polyrad/solve/solver.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -18,15 +18,11 @@ struct Rendered {
 
 Rendered render(const std::string& scene, DiffuseMode mode, bool classic = false) {
   Rendered r;
-  PipelineOptions po;
-  po.specular_transport = !classic;
-  r.sys = build_system(load_scene(test::scene_path(scene)), po);
+  r.sys = build_system(World::load(test::scene_path(scene), {.classic = classic}));
   r.solution = solve(r.sys->transport, r.sys->transport.emission(), SolveOptions{});
   GatherOptions go;
   go.diffuse = mode;
-  go.specular = !classic;
-  Gather g = build_gather(r.sys->scene.camera, r.sys->patches, r.sys->scene.materials,
-                          *r.sys->caster, r.sys->transport, go);
+  Gather g = build_gather(*r.sys->world, r.sys->transport.layout(), go);
   r.image = apply_gather(g, r.solution.u);
   return r;
 }
@@ -44,7 +40,7 @@ TEST(CameraGather, CornellImageIsUprightWithTheRedWallOnTheLeft) {
   ASSERT_EQ(img.width, 256);
   ASSERT_TRUE(img.all_finite());
   Rgb left = mean(img, 5, 25, 80, 180), right = mean(img, 231, 251, 80, 180);
-  EXPECT_GT(left[0], 3 * left[1]);   // red wall
+  EXPECT_GT(left[0], 3 * left[1]);    // red wall
   EXPECT_GT(right[1], 2 * right[0]);  // green wall
   // The lamp is the brightest thing and sits at the top.
   int best_y = 0;
@@ -76,15 +72,15 @@ TEST(CameraGather, SmoothAndFlatAgreeOnAverage) {
 }
 
 TEST(CameraGather, IsLinearInTheUnknowns) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
-  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                          sys->transport, GatherOptions{});
+  auto sys = build_system(World::load(test::scene_path("cornell-mirror-cube")));
+  Gather g = build_gather(*sys->world, sys->transport.layout(), GatherOptions{});
   Field u1 = Field::Random(sys->transport.size(), 3).cwiseAbs();
   Field u2 = Field::Random(sys->transport.size(), 3).cwiseAbs();
   Image a = apply_gather(g, u1), b = apply_gather(g, u2), ab = apply_gather(g, u1 + 2.0 * u2);
   double worst = 0.0;
   for (size_t k = 0; k < a.rgb.size(); ++k)
-    worst = std::max(worst, static_cast<double>(std::abs(ab.rgb[k] - (a.rgb[k] + 2.0f * b.rgb[k]))));
+    worst =
+        std::max(worst, static_cast<double>(std::abs(ab.rgb[k] - (a.rgb[k] + 2.0f * b.rgb[k]))));
   EXPECT_LT(worst, 1e-4);
 }
 
@@ -106,7 +102,8 @@ struct LampOverGlossyFloor {
       "materials": {
         "lamp": {"type": "diffuse", "reflectance": [0, 0, 0]},
         "floor": {"type": "glossy", "diffuse": [0, 0, 0], "specular": [0.8, 0.8, 0.8],
-                  "roughness": )" + std::to_string(roughness) + R"(}
+                  "roughness": )" +
+                             std::to_string(roughness) + R"(}
       },
       "objects": [
         {"name": "floor", "material": "floor",
@@ -114,10 +111,10 @@ struct LampOverGlossyFloor {
         {"name": "light", "material": "lamp", "emission": [4, 4, 4], "patch_size": 5,
          "polygon": [[55, 40, 25], [55, 40, 35], [45, 40, 35], [45, 40, 25]]}
       ]})";
-    sys = build_system(test::scene_from_json(json));
+    sys = build_system(World::build(test::scene_from_json(json)));
     u = Field::Zero(sys->transport.size(), 3);
-    for (PatchId p = 0; p < static_cast<PatchId>(sys->patches.size()); ++p)
-      if (sys->patches[p].emitter) u.row(p).setConstant(4.0);
+    for (PatchId p = 0; p < static_cast<PatchId>(sys->patches().size()); ++p)
+      if (sys->patches()[p].emitter) u.row(p).setConstant(4.0);
     reference = exact_image();
   }
 
@@ -126,14 +123,13 @@ struct LampOverGlossyFloor {
     go.lobe_samples = lobe_samples;
     go.diffuse = DiffuseMode::kFlat;
     go.light_samples = light_samples;
-    Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                            sys->transport, go);
+    Gather g = build_gather(*sys->world, sys->transport.layout(), go);
     return apply_gather(g, u);
   }
 
  private:
   Image exact_image() const {
-    const Camera& cam = sys->scene.camera;
+    const Camera& cam = sys->scene().camera;
     const Vec3 corner(45, 40, 25), n(0, -1, 0);
     const int q = 64;
     const double da = 100.0 / (q * q);
@@ -144,14 +140,15 @@ struct LampOverGlossyFloor {
         for (int a = 0; a < 2; ++a)
           for (int b = 0; b < 2; ++b) {
             Ray ray = cam.ray(x + (a + 0.5) / 2, y + (b + 0.5) / 2);
-            Hit hit = sys->caster->intersect(ray.origin, ray.direction);
-            if (!hit.valid() || sys->patches[hit.patch].emitter) continue;
-            const Material& m = sys->scene.materials[sys->patches[hit.patch].material];
+            Hit hit = sys->world->caster().intersect(ray.origin, ray.direction);
+            if (!hit.valid() || sys->patches()[hit.patch].emitter) continue;
+            const Material& m = sys->scene().materials[sys->patches()[hit.patch].material];
             Frame frame = Frame::from_normal(Vec3(0, 1, 0));
             Vec3 wo = frame.to_local(-ray.direction);
             for (int i = 0; i < q; ++i)
               for (int j = 0; j < q; ++j) {
-                Vec3 d = corner + Vec3(10.0 * (i + 0.5) / q, 0, 10.0 * (j + 0.5) / q) - hit.position;
+                Vec3 d =
+                    corner + Vec3(10.0 * (i + 0.5) / q, 0, 10.0 * (j + 0.5) / q) - hit.position;
                 double r2 = d.squaredNorm();
                 Vec3 wi = d / std::sqrt(r2);
                 sum += 0.25 * 0.8 * 4.0 * m.lobe_eval(frame.to_local(wi), wo) * wi.y() *
@@ -237,14 +234,14 @@ TEST(CameraGather, LightPointsReadTheSameUnknownsAsLobeSamples) {
       {"name": "light", "material": "lamp", "emission": [4, 4, 4], "patch_size": 4,
        "polygon": [[56, 40, 24], [56, 40, 36], [44, 40, 30]]}
     ]})";
-  auto sys = build_system(test::scene_from_json(json));
+  auto sys = build_system(World::build(test::scene_from_json(json)));
   const UnknownLayout& layout = sys->transport.layout();
   Field u = Field::Zero(sys->transport.size(), 3);
   Rng rng(5);
   int lamp_links = 0;
-  for (PatchId p = 0; p < static_cast<PatchId>(sys->patches.size()); ++p) {
-    if (!sys->patches[p].emitter) continue;
-    ASSERT_TRUE(sys->patches[p].is_triangle());
+  for (PatchId p = 0; p < static_cast<PatchId>(sys->patches().size()); ++p) {
+    if (!sys->patches()[p].emitter) continue;
+    ASSERT_TRUE(sys->patches()[p].is_triangle());
     u.row(p).setConstant(0.5 + rng.uniform());
     lamp_links += static_cast<int>(layout.link_start[p + 1] - layout.link_start[p]);
   }
@@ -254,8 +251,7 @@ TEST(CameraGather, LightPointsReadTheSameUnknownsAsLobeSamples) {
     GatherOptions go;
     go.light_samples = light_samples;
     go.lobe_samples = lobe_samples;
-    Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                            sys->transport, go);
+    Gather g = build_gather(*sys->world, sys->transport.layout(), go);
     return apply_gather(g, u);
   };
   HighlightError e = highlight_error(gather(64, 256), gather(0, 4096));

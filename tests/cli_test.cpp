@@ -13,26 +13,10 @@
 namespace polyrad {
 namespace {
 
-struct CliRun {
-  int code;
-  std::string err;
-};
+using test::CommandRun;
+using test::run_shell;
 
-// Runs a shell command line; stderr captured (in a directory of its own).
-CliRun run_shell(const std::string& line) {
-  auto dir = test::temp_dir();
-  std::string err_file = (dir / "stderr.txt").string();
-  std::string cmd = "sh -c '" + line + "' 2>" + err_file + " >/dev/null";
-  int status = std::system(cmd.c_str());
-  std::ifstream in(err_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
-
-CliRun run(const std::string& args) {
-  return run_shell(std::string(POLYRAD_CLI) + " --quiet " + args);
-}
+CommandRun run(const std::string& args) { return test::run_cli(args); }
 
 size_t lines(const std::string& s) {
   size_t n = 0;
@@ -44,18 +28,18 @@ TEST(Cli, RenderWritesImageReportAndPatchTable) {
   auto dir = test::temp_dir();
   std::string img = (dir / "cb.exr").string(), rep = (dir / "r.json").string(),
               csv = (dir / "p.csv").string();
-  CliRun r = run("render " + test::scene_path("cornell-box") + " -o " + img + " --report " + rep +
-              " --patches " + csv + " --method iterative --tolerance 1e-4");
+  CommandRun r = run("render " + test::scene_path("cornell-box") + " -o " + img + " --report " +
+                     rep + " --patches " + csv + " --method iterative --tolerance 1e-4");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(img));
-  std::ifstream rin(rep);
-  std::stringstream rs;
-  rs << rin.rdbuf();
-  JsonValue report = parse_json(rs.str(), rep);
-  for (const char* key : {"patches", "unknowns", "iterations", "residual", "seconds",
-                          "peak_memory_bytes", "form_factors"})
-    EXPECT_NE(report.find(key), nullptr) << key;
-  EXPECT_LT(report.find("residual")->number, 1e-4);
+  JsonValue report = test::read_json(rep);
+  for (const char* key : {"system", "solve", "gather", "seconds", "peak_memory_bytes", "machine"})
+    ASSERT_NE(report.find(key), nullptr) << key;
+  const JsonValue& system = *report.find("system");
+  for (const char* key : {"patches", "unknowns", "form_factors", "specular_transfer", "operator"})
+    EXPECT_NE(system.find(key), nullptr) << key;
+  EXPECT_LT(report.find("solve")->find("residual")->number, 1e-4);
+  EXPECT_GT(report.find("solve")->find("iterations")->number, 0.0);
   EXPECT_GT(report.find("peak_memory_bytes")->number, 1e6);
   EXPECT_NE(report.find("seconds")->find("form_factors"), nullptr);
   std::ifstream cin(csv);
@@ -64,25 +48,25 @@ TEST(Cli, RenderWritesImageReportAndPatchTable) {
   EXPECT_EQ(header, "patch,object,area,cx,cy,cz,nx,ny,nz,r,g,b");
   size_t rows = 0;
   for (std::string line; std::getline(cin, line);) ++rows;
-  EXPECT_EQ(static_cast<double>(rows), report.find("patches")->number);
+  EXPECT_EQ(static_cast<double>(rows), system.find("patches")->number);
 }
 
 TEST(Cli, BadInputIsExitTwoWithOneLineAndNoOutput) {
   auto dir = test::temp_dir();
   std::string img = (dir / "x.png").string();
   std::string bad = test::write_file(dir, "bad.json", "{\"camera\": 3}");
-  for (const std::string& args : std::vector<std::string>
-       {"render " + bad + " -o " + img, "render " + dir.string() + "/none.json -o " + img,
-        "render " + test::scene_path("cornell-box") + " -o " + (dir / "x.bmp").string(),
-        "render " + test::scene_path("cornell-box") + " -o " + (dir / "no" / "x.png").string(),
-        "render " + test::scene_path("cornell-box") + " -o " + img + " --tolerance -1",
-        "render " + test::scene_path("cornell-box") + " -o " + img + " --method magic",
-        "render " + test::scene_path("cornell-box"), "frobnicate", ""}) {
-    CliRun r = run(args);
+  for (const std::string& args : std::vector<std::string>{
+           "render " + bad + " -o " + img, "render " + dir.string() + "/none.json -o " + img,
+           "render " + test::scene_path("cornell-box") + " -o " + (dir / "x.bmp").string(),
+           "render " + test::scene_path("cornell-box") + " -o " + (dir / "no" / "x.png").string(),
+           "render " + test::scene_path("cornell-box") + " -o " + img + " --tolerance -1",
+           "render " + test::scene_path("cornell-box") + " -o " + img + " --method magic",
+           "render " + test::scene_path("cornell-box"), "frobnicate", ""}) {
+    CommandRun r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_EQ(lines(r.err), 1u) << args << "\n" << r.err;
   }
-  CliRun r = run("render " + bad + " -o " + img);
+  CommandRun r = run("render " + bad + " -o " + img);
   EXPECT_NE(r.err.find("bad.json:1:"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(img));
 }
@@ -91,12 +75,13 @@ TEST(Cli, DivergenceIsExitThreeAndWritesNothing) {
   auto dir = test::temp_dir();
   std::string scene = test::write_file(
       dir, "hot.json",
-      test::closed_box_json(Vec3(1, 1, 1), 0.5, R"({"type": "diffuse", "reflectance": [1.3, 1.3, 1.3]})", 1.0));
+      test::closed_box_json(Vec3(1, 1, 1), 0.5,
+                            R"({"type": "diffuse", "reflectance": [1.3, 1.3, 1.3]})", 1.0));
   std::string img = (dir / "hot.exr").string();
-  CliRun safe = run("render " + scene + " -o " + img);
+  CommandRun safe = run("render " + scene + " -o " + img);
   EXPECT_EQ(safe.code, 2) << safe.err;  // refused at load without the unsafe flag
-  CliRun r = run("render " + scene + " -o " + img + " --allow-unsafe-albedo --report " +
-              (dir / "r.json").string());
+  CommandRun r = run("render " + scene + " -o " + img + " --allow-unsafe-albedo --report " +
+                     (dir / "r.json").string());
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("diverges"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(img));
@@ -123,29 +108,37 @@ TEST(Cli, PrecomputeThenRelight) {
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   for (const char* mesh : {"short_block.obj", "tall_block.obj"}) {
     std::ifstream m(std::string(POLYRAD_SCENES_DIR) + "/meshes/" + mesh);
-    test::write_file(dir, std::string("meshes/") + mesh, std::string((std::istreambuf_iterator<char>(m)), {}));
+    test::write_file(dir, std::string("meshes/") + mesh,
+                     std::string((std::istreambuf_iterator<char>(m)), {}));
   }
   std::string scene = test::write_file(dir, "box.json", text);
   std::string prt = (dir / "box.prt").string();
-  CliRun pre = run("precompute " + scene + " -o " + prt + " --tolerance 1e-3 --precision half --report " +
-                   (dir / "pre.json").string());
+  CommandRun pre =
+      run("precompute " + scene + " -o " + prt + " --tolerance 1e-3 --precision half --report " +
+          (dir / "pre.json").string());
   ASSERT_EQ(pre.code, 0) << pre.err;
-  CliRun relit = run("relight " + prt + " -o " + (dir / "a.exr").string() +
-                     " --emission light=34,24,8 --report " + (dir / "rel.json").string());
+  CommandRun relit = run("relight " + prt + " -o " + (dir / "a.exr").string() +
+                         " --emission light=34,24,8 --report " + (dir / "rel.json").string());
   ASSERT_EQ(relit.code, 0) << relit.err;
-  std::ifstream rin(dir / "rel.json");
-  std::string rs((std::istreambuf_iterator<char>(rin)), {});
-  JsonValue report = parse_json(rs, "rel.json");
-  for (const char* key : {"product_seconds_median", "nnz", "bytes_touched", "order"})
-    EXPECT_NE(report.find(key), nullptr) << key;
+  const JsonValue report = test::read_json(dir / "rel.json");
+  ASSERT_NE(report.find("relight"), nullptr);
+  ASSERT_NE(report.find("series"), nullptr);
+  for (const char* key : {"product_seconds_median", "product_repeats", "bytes_touched", "emission"})
+    EXPECT_NE(report.find("relight")->find(key), nullptr) << key;
+  for (const char* key : {"order", "nnz", "bytes"})
+    EXPECT_NE(report.find("series")->find("report")->find(key), nullptr) << key;
 
-  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission lamp=1,1,1").code, 2);
-  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=1,1").code, 2);
-  EXPECT_EQ(run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=-1,1,1").code, 2);
+  EXPECT_EQ(
+      run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission lamp=1,1,1").code, 2);
+  EXPECT_EQ(
+      run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=1,1").code, 2);
+  EXPECT_EQ(
+      run("relight " + prt + " -o " + (dir / "b.exr").string() + " --emission light=-1,1,1").code,
+      2);
   // The scene changes: the operator is stale.
   text.replace(text.find("0.725, 0.71, 0.68"), 17, "0.700, 0.71, 0.68");
   test::write_file(dir, "box.json", text);
-  CliRun stale = run("relight " + prt + " -o " + (dir / "c.exr").string());
+  CommandRun stale = run("relight " + prt + " -o " + (dir / "c.exr").string());
   EXPECT_EQ(stale.code, 2);
   EXPECT_NE(stale.err.find("stale"), std::string::npos) << stale.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "c.exr"));
@@ -180,29 +173,97 @@ TEST(Cli, ReorderFlagIsReportedAndBadValuesAreExitTwo) {
   auto dir = test::temp_dir();
   const std::string scene = test::scene_path("cornell-box"), prt = (dir / "r.prt").string(),
                     rep = (dir / "r.json").string();
-  CliRun ok = run("precompute " + scene + " -o " + prt + " --patch-size 200 --order 3 --reorder rcm --report " + rep);
+  CommandRun ok = run("precompute " + scene + " -o " + prt +
+                      " --patch-size 200 --order 3 --reorder rcm --report " + rep);
   ASSERT_EQ(ok.code, 0) << ok.err;
-  std::ifstream in(rep);
-  JsonValue report = parse_json(std::string((std::istreambuf_iterator<char>(in)), {}), rep);
-  ASSERT_NE(report.find("reorder"), nullptr);
-  EXPECT_EQ(report.find("reorder")->string, "rcm");
+  const JsonValue report = test::read_json(rep);
+  ASSERT_NE(report.find("series"), nullptr);
+  const JsonValue& series = *report.find("series")->find("report");
+  ASSERT_NE(series.find("reorder"), nullptr);
+  EXPECT_EQ(series.find("reorder")->string, "rcm");
   for (const char* key : {"bandwidth_before", "bandwidth_after", "reorder_seconds"})
-    EXPECT_NE(report.find(key), nullptr) << key;
-  EXPECT_LE(report.find("bandwidth_after")->number, report.find("bandwidth_before")->number);
+    EXPECT_NE(series.find(key), nullptr) << key;
+  EXPECT_LE(series.find("bandwidth_after")->number, series.find("bandwidth_before")->number);
   for (const std::string& args :
        {"precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder metis",
         "precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder",
         "render " + scene + " --method series -o " + (dir / "x.pfm").string() + " --reorder RCM",
         // A valid value the system cannot honour: refused before the scene is built.
-        "precompute " + scene + " -o " + (dir / "x.prt").string() + " --reorder rcm --specular-on-the-fly",
+        "precompute " + scene + " -o " + (dir / "x.prt").string() +
+            " --reorder rcm --specular-on-the-fly",
         "render " + scene + " --method series -o " + (dir / "x.pfm").string() +
             " --reorder rcm --specular-on-the-fly"}) {
-    CliRun bad = run(args);
+    CommandRun bad = run(args);
     EXPECT_EQ(bad.code, 2) << args << "\n" << bad.err;
     EXPECT_EQ(lines(bad.err), 1u) << bad.err;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "x.prt"));
   EXPECT_FALSE(std::filesystem::exists(dir / "x.pfm"));
+}
+
+// Every field of the operator's record, as precompute reported it, is what relight reads back
+// from the file: one serialisation for the header and the reports, whatever the options.
+void expect_same_json(const JsonValue& a, const JsonValue& b, const std::string& where) {
+  ASSERT_EQ(a.kind, b.kind) << where;
+  switch (a.kind) {
+    case JsonValue::Kind::kNumber:
+      EXPECT_EQ(a.number, b.number) << where;
+      break;
+    case JsonValue::Kind::kString:
+      EXPECT_EQ(a.string, b.string) << where;
+      break;
+    case JsonValue::Kind::kBool:
+      EXPECT_EQ(a.boolean, b.boolean) << where;
+      break;
+    case JsonValue::Kind::kArray:
+      ASSERT_EQ(a.array.size(), b.array.size()) << where;
+      for (size_t k = 0; k < a.array.size(); ++k)
+        expect_same_json(a.array[k], b.array[k], where + "[" + std::to_string(k) + "]");
+      break;
+    case JsonValue::Kind::kObject:
+      ASSERT_EQ(a.object.size(), b.object.size()) << where;
+      for (size_t k = 0; k < a.object.size(); ++k) {
+        EXPECT_EQ(a.object[k].first, b.object[k].first) << where;
+        expect_same_json(a.object[k].second, b.object[k].second, where + "." + a.object[k].first);
+      }
+      break;
+    case JsonValue::Kind::kNull:
+      break;
+  }
+}
+
+TEST(Cli, EveryPrecomputeOptionRoundTripsThroughTheFileIntoRelightsReport) {
+  auto dir = test::temp_dir();
+  const std::string scene = test::scene_path("cornell-box");
+  const std::vector<std::string> variants = {
+      "--acceleration chebyshev",
+      "--acceleration none --order 3",
+      "--basis object",
+      "--output solution --order 4",
+      "--precision half",
+      "--reorder rcm --order 3",
+      "--basis object --output solution --precision half --acceleration chebyshev --reorder rcm"};
+  int n = 0;
+  for (const std::string& v : variants) {
+    const std::string prt = (dir / ("v" + std::to_string(n) + ".prt")).string();
+    const std::string pre = (dir / ("p" + std::to_string(n) + ".json")).string();
+    const std::string rel = (dir / ("r" + std::to_string(n) + ".json")).string();
+    ++n;
+    CommandRun a =
+        run("precompute " + scene + " --patch-size 150 -o " + prt + " " + v + " --report " + pre);
+    ASSERT_EQ(a.code, 0) << v << "\n" << a.err;
+    CommandRun b = run("relight " + prt + " -o " + (dir / "x.pfm").string() + " --report " + rel);
+    ASSERT_EQ(b.code, 0) << v << "\n" << b.err;
+    const JsonValue p = test::read_json(pre), r = test::read_json(rel);
+    ASSERT_NE(p.find("series"), nullptr);
+    ASSERT_NE(r.find("series"), nullptr);
+    expect_same_json(*p.find("series"), *r.find("series"), v + ": series");
+  }
+  // What the file once lost: a Chebyshev operator read back as a plain series.
+  const JsonValue cheb = test::read_json(dir / "r0.json");
+  const JsonValue& rep = *cheb.find("series")->find("report");
+  EXPECT_EQ(rep.find("acceleration")->string, "chebyshev");
+  EXPECT_GT(rep.find("residual_bound")->number, 0.0);
 }
 
 double relative_l1(const std::string& a, const std::string& b) {
@@ -226,7 +287,10 @@ TEST(Cli, PrecomputeTakesTheGatherFlagsOfRender) {
   const std::string view = (dir / "v.prt").string(), sol = (dir / "s.prt").string(),
                     plain = (dir / "p.prt").string();
   ASSERT_EQ(run("precompute " + scene + " -o " + view + " --tolerance 1e-6" + gather).code, 0);
-  ASSERT_EQ(run("precompute " + scene + " -o " + sol + " --tolerance 1e-6 --output solution" + gather).code, 0);
+  ASSERT_EQ(
+      run("precompute " + scene + " -o " + sol + " --tolerance 1e-6 --output solution" + gather)
+          .code,
+      0);
   ASSERT_EQ(run("precompute " + scene + " -o " + plain + " --tolerance 1e-6").code, 0);
   const std::string v = (dir / "v.pfm").string(), s = (dir / "s.pfm").string(),
                     p = (dir / "p.pfm").string(), r = (dir / "r.pfm").string();
@@ -243,8 +307,13 @@ TEST(Cli, PrecomputeTakesTheGatherFlagsOfRender) {
 TEST(Cli, RenderBySeriesMatchesIterative) {
   auto dir = test::temp_dir();
   std::string a = (dir / "s.pfm").string(), b = (dir / "i.pfm").string();
-  ASSERT_EQ(run("render " + test::scene_path("cornell-mirror-cube") + " --method series --tolerance 1e-4 -o " + a).code, 0);
-  ASSERT_EQ(run("render " + test::scene_path("cornell-mirror-cube") + " --tolerance 1e-6 -o " + b).code, 0);
+  ASSERT_EQ(run("render " + test::scene_path("cornell-mirror-cube") +
+                " --method series --tolerance 1e-4 -o " + a)
+                .code,
+            0);
+  ASSERT_EQ(
+      run("render " + test::scene_path("cornell-mirror-cube") + " --tolerance 1e-6 -o " + b).code,
+      0);
   Image x = read_image(a), y = read_image(b);
   double sum = 0.0, diff = 0.0;
   for (size_t k = 0; k < x.rgb.size(); ++k) {
@@ -262,7 +331,8 @@ namespace {
 
 std::vector<std::string> files_in(const std::filesystem::path& dir) {
   std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    names.push_back(e.path().filename().string());
   return names;
 }
 
@@ -270,19 +340,21 @@ TEST(Cli, InterruptedPrecomputeLeavesNothing) {
   auto dir = test::temp_dir();
   std::string prt = (dir / "big.prt").string();
   // A precompute of several seconds (fine patches), stopped by SIGTERM after one.
-  std::string cmd = std::string(POLYRAD_CLI) + " --quiet precompute " + test::scene_path("cornell-mirror-cube") +
-                    " --patch-size 15 -o " + prt + " 2>/dev/null & pid=$!; sleep 1; kill -TERM $pid; wait $pid";
+  std::string cmd = std::string(POLYRAD_CLI) + " --quiet precompute " +
+                    test::scene_path("cornell-mirror-cube") + " --patch-size 15 -o " + prt +
+                    " 2>/dev/null & pid=$!; sleep 1; kill -TERM $pid; wait $pid";
   int status = std::system(("sh -c '" + cmd + "'").c_str());
   EXPECT_NE(status, 0);
-  EXPECT_TRUE(files_in(dir).empty()) << files_in(dir).size() << " files left, first " << files_in(dir)[0];
+  EXPECT_TRUE(files_in(dir).empty())
+      << files_in(dir).size() << " files left, first " << files_in(dir)[0];
 }
 
 TEST(Cli, FullDiskIsReportedAndLeavesNothing) {
   auto dir = test::temp_dir();
   std::string prt = (dir / "a.prt").string();
   // A file size limit of 64 KiB stands in for a full disk: the operator is megabytes.
-  CliRun r = run_shell("ulimit -f 128; " + std::string(POLYRAD_CLI) + " --quiet precompute " +
-                       test::scene_path("cornell-box") + " -o " + prt);
+  CommandRun r = run_shell("ulimit -f 128; " + std::string(POLYRAD_CLI) + " --quiet precompute " +
+                           test::scene_path("cornell-box") + " -o " + prt);
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
   EXPECT_TRUE(files_in(dir).empty() || files_in(dir) == std::vector<std::string>{"stderr.txt"});

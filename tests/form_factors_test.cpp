@@ -1,11 +1,11 @@
-// Form factors against the closed forms of METHOD.md section 8.
+// Form factors against the closed forms of papers/glossy-radiosity.md, section 10.
 #include "polyrad/transport/form_factors.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "polyrad/transport/system.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -94,15 +94,15 @@ TEST(FormFactors, OccluderHalvesTheView) {
 TEST(FormFactors, ClosedBoxRowsSumToOne) {
   Scene s = test::scene_from_json(test::closed_box_json(
       Vec3(1.0, 0.8, 1.3), 0.2, R"({"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]})", 1.0));
-  auto sys = build_system(std::move(s));
+  auto sys = build_system(World::build(std::move(s)));
   double worst = 0.0;
-  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches.size()); ++i)
+  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches().size()); ++i)
     worst = std::max(worst, std::abs(sys->form_factors.row_sum(i) - 1.0));
   EXPECT_LT(worst, 2e-3);
 }
 
 TEST(FormFactors, ReciprocityOnTheCornellBox) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-box")));
+  auto sys = build_system(World::load(test::scene_path("cornell-box")));
   const auto& f = sys->form_factors.f;
   const auto& area = sys->form_factors.area;  // exposed areas A'_i: A'_i F_ij = A'_j F_ji
   long long checked = 0;
@@ -126,7 +126,8 @@ TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
   RayCaster caster(ps);
   const FormFactorOptions o;
   FormFactors ff = compute_form_factors(ps, caster, o);
-  const std::vector<double> exposed = exposed_areas(ps, caster, o.exposure_points, o.exposure_refined);
+  const std::vector<double> exposed =
+      exposed_areas(ps, caster, o.exposure_points, o.exposure_refined);
   const auto n = static_cast<PatchId>(ps.size());
   long long checked = 0;
   for (PatchId i = 0; i < n; ++i)
@@ -146,7 +147,7 @@ TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
 TEST(FormFactors, SameNumbersOnOneOrTwoThreads) {
   auto build = [](int threads) {
     omp_set_num_threads(threads);
-    auto sys = build_system(load_scene(test::scene_path("cornell-box")), PipelineOptions{});
+    auto sys = build_system(World::load(test::scene_path("cornell-box")));
     omp_set_num_threads(omp_get_num_procs());
     return sys->form_factors.f.value;
   };
@@ -189,14 +190,15 @@ std::string box_with_block(double a) {
 }
 
 TEST(FormFactors, BuriedPartsOfPatchesAreLeftOut) {
-  auto sys = build_system(test::scene_from_json(box_with_block(0.5)));
-  const auto& ps = sys->patches;
-  ObjectId floor = sys->scene.find_object("floor");
+  auto sys = build_system(World::build(test::scene_from_json(box_with_block(0.5))));
+  const auto& ps = sys->patches();
+  ObjectId floor = sys->scene().find_object("floor");
   for (PatchId i = 0; i < static_cast<PatchId>(ps.size()); ++i) {
     const double exposed = sys->form_factors.area[i];
     if (ps[i].object == floor) {
       // Exact: the floor patch minus its overlap with the footprint [0.3, 0.6]^2.
-      Vec3 lo = ps[i].corner[0].cwiseMin(ps[i].corner[2]), hi = ps[i].corner[0].cwiseMax(ps[i].corner[2]);
+      Vec3 lo = ps[i].corner[0].cwiseMin(ps[i].corner[2]),
+           hi = ps[i].corner[0].cwiseMax(ps[i].corner[2]);
       double ox = std::max(0.0, std::min(hi.x(), 0.6) - std::max(lo.x(), 0.3));
       double oz = std::max(0.0, std::min(hi.z(), 0.6) - std::max(lo.z(), 0.3));
       // 32 x 32 test points on a patch crossed by two footprint edges: 2 / 32 of its area.
@@ -215,14 +217,14 @@ TEST(FormFactors, BuriedPartsOfPatchesAreLeftOut) {
 }
 
 TEST(FormFactors, FurnaceWithABlockIsUniformWhereLightReaches) {
-  auto sys = build_system(test::scene_from_json(box_with_block(0.5)));
+  auto sys = build_system(World::build(test::scene_from_json(box_with_block(0.5))));
   SolveOptions o;
   o.tolerance = 1e-8;
   SolveResult r = solve(sys->transport, sys->transport.emission(), o);
   ASSERT_TRUE(r.ok());
-  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches.size()); ++i)
+  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches().size()); ++i)
     // B = E + a F B: a row-sum error e moves B by a e / (1 - a)^2 = 2 e here.
-    if (sys->form_factors.area[i] >= sys->patches[i].area) {
+    if (sys->form_factors.area[i] >= sys->patches()[i].area) {
       EXPECT_NEAR(r.u(i, 0), 2.0, 0.02) << "patch " << i;
     } else if (sys->form_factors.area[i] > 0.0) {
       EXPECT_NEAR(r.u(i, 0), 2.0, 0.08) << "partly buried patch " << i;

@@ -16,11 +16,11 @@
 #include <vector>
 
 #include "fuzz_inputs.h"
-#include "polyrad/render/camera_gather.h"
-#include "polyrad/util/error.h"
-#include "polyrad/transport/system.h"
 #include "polyrad/io/prt_file.h"
-#include "polyrad/solve/series.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/solve/series_precompute.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/error.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -96,8 +96,8 @@ TEST(FuzzRegression, PrtFindings) { replay_findings("regressions/prt", fuzz::prt
 
 // The bytes of a .prt file that this polyrad writes for the fuzz seed scene.
 std::string prt_bytes(const RadiositySystem& sys, const Gather& gather, const SeriesOptions& o) {
-  SeriesOperator q = precompute_series(sys.transport, sys.patches, sys.scene,
-                                       o.output == SeriesOutput::kView ? &gather : nullptr, o);
+  SeriesOperator q = precompute_series(sys.transport, *sys.world, o,
+                                       o.output == SeriesOutput::kView ? &gather : nullptr);
   std::string path = (test::temp_dir() / "seed.prt").string();
   write_prt(q, path);
   return read_bytes(path);
@@ -119,9 +119,8 @@ Outcome read_as_is(const std::string& bytes, const std::string& what) {
 // every such file must be refused; with it (fuzz::prt_input), refused with InputError or accepted
 // as a consistent operator, and nothing else.
 TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
-  auto sys = build_system(load_scene(std::string(POLYRAD_FUZZ_DIR) + "/prt_seed_scene.json"));
-  Gather gather = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster,
-                               sys->transport);
+  auto sys = build_system(World::load(std::string(POLYRAD_FUZZ_DIR) + "/prt_seed_scene.json"));
+  Gather gather = build_gather(*sys->world, sys->transport.layout());
   struct Variant {
     SeriesOutput output;
     ValuePrecision precision;
@@ -144,8 +143,8 @@ TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
     o.drop = v.drop;
     o.progress = false;
     const std::string bytes = prt_bytes(*sys, gather, o);
-    const std::string name = std::string(series_output_name(v.output)) + "-" +
-                             value_precision_name(v.precision) + "-" + series_basis_name(v.basis);
+    const std::string name =
+        std::string(enum_name(v.output)) + "-" + enum_name(v.precision) + "-" + enum_name(v.basis);
     ASSERT_EQ(replay_bytes(fuzz::prt_input, bytes, name), Outcome::kAccepted) << name;
     {
       fuzz::AlignedBytes file(bytes);

@@ -1,5 +1,4 @@
 // Image comparison figures on synthetic images with known answers, and `polyrad compare`.
-#include "polyrad/io/image_io.h"
 #include "polyrad/render/image_compare.h"
 
 #include <gtest/gtest.h>
@@ -10,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "polyrad/io/image_io.h"
 #include "polyrad/util/files.h"
 #include "polyrad/util/json.h"
 #include "test_support.h"
@@ -108,6 +108,10 @@ TEST(ImageCompare, RegionMeansAndDifferences) {
   EXPECT_NEAR(c.regions[1].relative_difference[1], 1.0 / 3.0, 1e-7);
   EXPECT_EQ(c.pixels_without_region, 1);
   EXPECT_NEAR(c.worst_region_difference, std::abs(c.regions[1].luminance_difference), 1e-15);
+  // Relative L1 per region: left is exact; in right, the two pixels at 1.5 are 0.5 off in three
+  // channels each and (3,0) 0.5 off in red: 3.5 over nine values of 1.
+  EXPECT_EQ(c.regions[0].relative_l1, 0.0);
+  EXPECT_NEAR(c.regions[1].relative_l1, (1.5 + 0.5 + 1.5) / 9.0, 1e-7);
 }
 
 TEST(ImageCompare, DifferentSizesAreAnInputError) {
@@ -139,15 +143,13 @@ TEST(ImageCompare, ErrorPictureColours) {
 TEST(ImageCompare, ObjectRegionsOfTheCornellBox) {
   Scene scene = load_scene(test::scene_path("cornell-box"));
   scene.camera.width = scene.camera.height = 32;
-  PatchSet patches = mesh_scene(scene);
-  RayCaster caster(patches);
-  RegionMap map = object_regions(scene, patches, caster);
+  RegionMap map = object_regions(*World::build(std::move(scene)));
   ASSERT_EQ(map.label.size(), 32u * 32u);
   auto name_at = [&](int x, int y) {
     int l = map.label[static_cast<size_t>(y) * 32 + x];
     return l < 0 ? std::string("-") : map.names[l];
   };
-  EXPECT_EQ(name_at(3, 16), "red_wall");    // the red wall is on the left
+  EXPECT_EQ(name_at(3, 16), "red_wall");  // the red wall is on the left
   EXPECT_EQ(name_at(28, 16), "green_wall");
   EXPECT_EQ(name_at(4, 29), "floor");
   EXPECT_EQ(name_at(16, 2), "ceiling");
@@ -165,20 +167,6 @@ TEST(ImageCompare, ObjectRegionsOfTheCornellBox) {
 
 // ---- the command line ------------------------------------------------------------------------
 
-int run_cli(const std::string& args, std::string* out = nullptr) {
-  auto dir = test::temp_dir();
-  std::string out_file = (dir / "stdout.txt").string();
-  std::string cmd = std::string(POLYRAD_CLI) + " --quiet " + args + " >" + out_file + " 2>&1";
-  int status = std::system(cmd.c_str());
-  if (out) {
-    std::ifstream in(out_file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    *out = ss.str();
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 TEST(ImageCompare, CommandLineWritesReportAndPictures) {
   auto dir = test::temp_dir();
   Scene scene = load_scene(test::scene_path("furnace"));
@@ -188,16 +176,18 @@ TEST(ImageCompare, CommandLineWritesReportAndPictures) {
   write_image(constant(w, h, Rgb(2, 2, 2)), b);
   std::string rep = (dir / "r.json").string(), heat = (dir / "h.png").string(),
               sbs = (dir / "s.png").string();
-  std::string out;
-  int code = run_cli("compare " + a + " " + b + " --scene " + test::scene_path("furnace") +
-                         " --report " + rep + " --heatmap " + heat + " --side-by-side " + sbs,
-                     &out);
-  ASSERT_EQ(code, 0) << out;
+  const test::CommandRun run =
+      test::run_cli("compare " + a + " " + b + " --scene " + test::scene_path("furnace") +
+                    " --report " + rep + " --heatmap " + heat + " --side-by-side " + sbs);
+  ASSERT_EQ(run.code, 0) << run.err;
   EXPECT_TRUE(std::filesystem::exists(heat));
   EXPECT_TRUE(std::filesystem::exists(sbs));
   Image s = read_image(sbs);
   EXPECT_EQ(s.width, 3 * w + 8);
-  JsonValue r = parse_json(read_text_file(rep, "report"), rep);
+  const JsonValue report = test::read_json(rep);
+  EXPECT_EQ(report.find("inputs")->find("a")->string, a);
+  ASSERT_NE(report.find("comparison"), nullptr);
+  const JsonValue& r = *report.find("comparison");
   EXPECT_NEAR(r.find("normalized_rmse")->number, 0.1, 1e-6);
   ASSERT_NE(r.find("regions"), nullptr);
   EXPECT_GE(r.find("regions")->array.size(), 4u);  // the walls the camera sees
@@ -211,13 +201,15 @@ TEST(ImageCompare, CommandLineRefusesImagesOfDifferentSizes) {
   std::string a = (dir / "a.pfm").string(), b = (dir / "b.pfm").string();
   write_image(constant(8, 8, Rgb(1, 1, 1)), a);
   write_image(constant(8, 9, Rgb(1, 1, 1)), b);
-  std::string rep = (dir / "r.json").string(), out;
-  EXPECT_EQ(run_cli("compare " + a + " " + b + " --report " + rep, &out), 2) << out;
+  std::string rep = (dir / "r.json").string();
+  test::CommandRun run = test::run_cli("compare " + a + " " + b + " --report " + rep);
+  EXPECT_EQ(run.code, 2) << run.err;
+  std::string out = run.out + run.err;
   EXPECT_FALSE(std::filesystem::exists(rep));
   EXPECT_NE(out.find("differ in size"), std::string::npos) << out;
   // A scene whose camera does not match the images is bad input too.
-  EXPECT_EQ(run_cli("compare " + a + " " + a + " --scene " + test::scene_path("furnace"), &out), 2)
-      << out;
+  run = test::run_cli("compare " + a + " " + a + " --scene " + test::scene_path("furnace"));
+  EXPECT_EQ(run.code, 2) << run.err;
 }
 
 }  // namespace

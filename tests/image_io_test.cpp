@@ -1,9 +1,10 @@
+#include "polyrad/io/image_io.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "polyrad/util/error.h"
-#include "polyrad/io/image_io.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -32,7 +33,8 @@ TEST(ImageIo, ExrRoundTripsAtHalfPrecision) {
   write_image(img, (dir / "a.exr").string());
   Image back = read_image((dir / "a.exr").string());
   ASSERT_EQ(back.rgb.size(), img.rgb.size());
-  for (size_t k = 0; k < img.rgb.size(); ++k) EXPECT_NEAR(back.rgb[k], img.rgb[k], 1e-3 * (1 + img.rgb[k]));
+  for (size_t k = 0; k < img.rgb.size(); ++k)
+    EXPECT_NEAR(back.rgb[k], img.rgb[k], 1e-3 * (1 + img.rgb[k]));
   EXPECT_NEAR(back.at(6, 0)[0], 0.6, 1e-3);  // orientation
 }
 

@@ -8,7 +8,8 @@ namespace polyrad {
 namespace {
 
 TEST(Json, ParsesValuesWithPositions) {
-  JsonValue v = parse_json("{\n  \"a\": [1, -2.5e3, true, null],\n  \"b\": \"x\\u00e9\"\n}", "f.json");
+  JsonValue v =
+      parse_json("{\n  \"a\": [1, -2.5e3, true, null],\n  \"b\": \"x\\u00e9\"\n}", "f.json");
   ASSERT_TRUE(v.is(JsonValue::Kind::kObject));
   const JsonValue* a = v.find("a");
   ASSERT_NE(a, nullptr);

@@ -1,5 +1,6 @@
-// Coarse patches against sharp lobes (METHOD.md section 9): the lobe widths the check uses, the
-// warning it raises, and the error it warns about, against an independent quadrature.
+// Coarse patches against sharp lobes (papers/glossy-radiosity.md, section 11): the lobe widths the
+// check uses, the warning it raises, and the error it warns about, against an independent
+// quadrature.
 #include "polyrad/transport/lobe_resolution.h"
 
 #include <gtest/gtest.h>
@@ -11,10 +12,10 @@
 #include <sstream>
 #include <utility>
 
-#include "polyrad/util/json.h"
-#include "polyrad/transport/system.h"
-#include "polyrad/util/sampling.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/json.h"
+#include "polyrad/util/sampling.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -73,9 +74,8 @@ const LobeResolution* find(const std::vector<LobeResolution>& lobes, const std::
 }
 
 TEST(LobeResolution, TheSharpLobeSceneWarnsForTheSharpBlockOnlyAtACoarseSize) {
-  PipelineOptions o;
-  o.patch_size = 100;
-  auto sys = build_system(load_scene(test::scene_path("stability/sharp-lobe")), o);
+  auto sys =
+      build_system(World::load(test::scene_path("stability/sharp-lobe"), {.patch_size = 100}));
   const LobeResolution* sharp = find(sys->lobes, "tall_block");
   const LobeResolution* rough = find(sys->lobes, "short_block");
   ASSERT_NE(sharp, nullptr);
@@ -91,13 +91,6 @@ TEST(LobeResolution, TheSharpLobeSceneWarnsForTheSharpBlockOnlyAtACoarseSize) {
     EXPECT_NE(text.find(part), std::string::npos) << part << " in: " << text;
 }
 
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(LobeResolution, RenderWarnsOnStderrAndInTheReport) {
   auto dir = test::temp_dir();
   const std::string report = (dir / "r.json").string();
@@ -106,12 +99,12 @@ TEST(LobeResolution, RenderWarnsOnStderrAndInTheReport) {
                               (dir / "i.pfm").string() + " --report " + report + " 2> " +
                               (dir / "err.txt").string();
   ASSERT_EQ(std::system(command.c_str()), 0);
-  const std::string err = read_text(dir / "err.txt");
+  const std::string err = test::read_text(dir / "err.txt");
   const std::string line = "polyrad: warning: object 'tall_block' (material 'sharp'";
   ASSERT_NE(err.find(line), std::string::npos) << err;
   EXPECT_EQ(err.find(line, err.find(line) + 1), std::string::npos) << "one warning per object";
   EXPECT_EQ(err.find("'short_block'"), std::string::npos) << err;
-  JsonValue r = parse_json(read_text(report), report);
+  JsonValue r = parse_json(test::read_text(report), report);
   const JsonValue* warnings = r.find("warnings");
   ASSERT_NE(warnings, nullptr);
   ASSERT_EQ(warnings->array.size(), 1u);
@@ -120,7 +113,8 @@ TEST(LobeResolution, RenderWarnsOnStderrAndInTheReport) {
   EXPECT_EQ(w.find("material")->string, "sharp");
   EXPECT_GT(w.find("patch_angle_degrees")->number, w.find("lobe_width_degrees")->number);
   EXPECT_LT(w.find("resolving_patch_size")->number, 100.0);
-  EXPECT_EQ(r.find("lobe_resolution")->array.size(), 2u);  // both glossy blocks were checked
+  // Both glossy blocks were checked.
+  EXPECT_EQ(r.find("system")->find("lobe_resolution")->array.size(), 2u);
 }
 
 // A small glossy plate on the floor reflects a small lamp onto a diffuse ceiling that the lamp
@@ -157,8 +151,8 @@ std::string caustic_scene(const std::string& plate_material, double ceiling_patc
 std::string glossy_json(double alpha) {
   std::ostringstream s;
   const double k = kPlateSpecular;
-  s << R"({"type": "glossy", "specular": [)" << k << ", " << k << ", " << k
-    << R"(], "roughness": )" << alpha << "}";
+  s << R"({"type": "glossy", "specular": [)" << k << ", " << k << ", " << k << R"(], "roughness": )"
+    << alpha << "}";
   return s.str();
 }
 
@@ -209,21 +203,21 @@ struct CausticRun {
 };
 
 CausticRun radiosity_caustic(double alpha, double ceiling_patch) {
-  PipelineOptions o;
+  SystemOptions o;
   // The caustic rests on few lamp pairs: enough samples keep its noise well below its error.
   o.specular.samples = 1024;
-  auto sys =
-      build_system(test::scene_from_json(caustic_scene(glossy_json(alpha), ceiling_patch)), o);
+  auto sys = build_system(
+      World::build(test::scene_from_json(caustic_scene(glossy_json(alpha), ceiling_patch))), o);
   SolveOptions so;
   so.tolerance = 1e-8;
   SolveResult r = solve(sys->transport, sys->transport.emission(), so);
   EXPECT_TRUE(r.ok()) << r.message;
   CausticRun run{sys->lobes, {}};
-  const ObjectId ceiling = sys->scene.find_object("ceiling");
+  const ObjectId ceiling = sys->scene().find_object("ceiling");
   for (const Vec3& x : ceiling_points()) {
     double value = -1.0;
-    for (PatchId p = 0; p < static_cast<PatchId>(sys->patches.size()); ++p) {
-      const Patch& q = sys->patches[p];
+    for (PatchId p = 0; p < static_cast<PatchId>(sys->patches().size()); ++p) {
+      const Patch& q = sys->patches()[p];
       if (q.object != ceiling) continue;
       Eigen::Vector3d lo = q.corner[0], hi = q.corner[0];
       for (const Vec3& c : q.corner) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
@@ -262,8 +256,8 @@ TEST(LobeResolution, CoarseCeilingSmearsTheSharpCausticAndIsWarnedAbout) {
 }
 
 TEST(LobeResolution, MirrorsAreNotChecked) {
-  auto sys = build_system(test::scene_from_json(
-      caustic_scene(R"({"type": "mirror", "reflectance": [0.9, 0.9, 0.9]})", 1.0)));
+  auto sys = build_system(World::build(test::scene_from_json(
+      caustic_scene(R"({"type": "mirror", "reflectance": [0.9, 0.9, 0.9]})", 1.0))));
   EXPECT_GT(sys->specular.entries(), 0);
   EXPECT_TRUE(sys->lobes.empty());
 }

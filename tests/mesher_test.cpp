@@ -58,7 +58,8 @@ TEST(Mesher, TrianglePairsOfAnObjBecomeQuads) {
     "camera": {"position": [0, 100, -500], "look_at": [0, 100, 0], "fov_deg": 40, "width": 8, "height": 8},
     "patch_size": 1000,
     "materials": {"w": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}},
-    "objects": [{"name": "block", "material": "w", "mesh": ")" + mesh + R"("}]})");
+    "objects": [{"name": "block", "material": "w", "mesh": ")" +
+                                  mesh + R"("}]})");
   ASSERT_EQ(s.objects[0].faces.size(), 12u);
   PatchSet ps = mesh_scene(s);
   ASSERT_EQ(ps.size(), 6u);
@@ -133,7 +134,8 @@ TEST(Mesher, SampleGivesThePointsParameters) {
         double density;
         Vec2 uv;
         Vec3 y = p->sample(Vec2(s0, s1), &density, &uv);
-        EXPECT_LT((p->point(uv.x(), uv.y()) - y).norm(), 1e-12) << p->corners << " " << s0 << " " << s1;
+        EXPECT_LT((p->point(uv.x(), uv.y()) - y).norm(), 1e-12)
+            << p->corners << " " << s0 << " " << s1;
       }
 }
 

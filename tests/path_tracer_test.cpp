@@ -1,6 +1,5 @@
-// The path tracer against exact answers (METHOD.md section 8). Every tolerance is a multiple of
-// the estimator's own standard error, estimated from the same samples.
-#include "polyrad/io/image_io.h"
+// The path tracer against exact answers (papers/glossy-radiosity.md, section 10). Every tolerance
+// is a multiple of the estimator's own standard error, estimated from the same samples.
 #include "polyrad/render/path_tracer.h"
 
 #include <gtest/gtest.h>
@@ -14,25 +13,26 @@
 #include <memory>
 #include <sstream>
 
-#include "polyrad/util/files.h"
+#include "polyrad/io/image_io.h"
 #include "polyrad/render/image_compare.h"
+#include "polyrad/util/files.h"
 #include "polyrad/util/json.h"
 #include "test_support.h"
 
 namespace polyrad {
 namespace {
 
-// A scene with everything the tracer refers to, kept in place.
+// A world and its tracer; the camera may be resized first (width, height > 0).
 struct Traced {
-  Scene scene;
-  PatchSet patches;
-  std::unique_ptr<RayCaster> caster;
+  std::shared_ptr<const World> world;
   std::unique_ptr<PathTracer> tracer;
-  explicit Traced(Scene s) : scene(std::move(s)) {
-    patches = mesh_scene(scene);
-    caster = std::make_unique<RayCaster>(patches);
-    tracer = std::make_unique<PathTracer>(patches, scene.materials, *caster);
+  explicit Traced(Scene s, int width = 0, int height = 0) {
+    if (width > 0) s.camera.width = width;
+    if (height > 0) s.camera.height = height;
+    world = World::build(std::move(s));
+    tracer = std::make_unique<PathTracer>(*world);
   }
+  const Camera& camera() const { return world->camera(); }
 };
 
 struct Estimate {
@@ -84,7 +84,7 @@ void expect_furnace(const std::string& material, double albedo, double emission)
   o.spp = 16;
   o.standard_error = true;
   o.progress = false;
-  PathTraceResult r = t.tracer->render(t.scene.camera, o);
+  PathTraceResult r = t.tracer->render(t.camera(), o);
   Estimate e = image_mean(r);
   double exact = emission / (1.0 - albedo);
   for (int c = 0; c < 3; ++c) {
@@ -115,9 +115,9 @@ TEST(PathTracer, FurnaceLambertPlusMirror) {
 
 // ---- direct light of the Cornell lamp at floor points ----------------------------------------
 
-// Differential area to a parallel rectangle with the normal through one corner (METHOD.md
-// section 8), with signed sides: odd in A and in B, so that rectangles not containing the foot
-// of the normal come out of the same four-term sum.
+// Differential area to a parallel rectangle with the normal through one corner
+// (papers/glossy-radiosity.md, section 10), with signed sides: odd in A and in B, so that
+// rectangles not containing the foot of the normal come out of the same four-term sum.
 double corner_ff(double a, double b, double c) {
   double A = a / c, B = b / c;
   double sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
@@ -167,12 +167,13 @@ void expect_cornell_direct(bool next_event, int samples) {
   for (Vec2 p : {Vec2(278, 279.5), Vec2(100, 100), Vec2(450, 500), Vec2(278, 40), Vec2(30, 300)}) {
     double f = rectangle_ff(p.x(), p.y(), 213, 343, 227, 332, c);
     Rgb exact = rho * le * f;
-    Estimate e = estimate(*t.tracer, Vec3(p.x(), 1.0, p.y()), Vec3(0, -1, 0), samples, 100 + k++, o);
+    Estimate e =
+        estimate(*t.tracer, Vec3(p.x(), 1.0, p.y()), Vec3(0, -1, 0), samples, 100 + k++, o);
     for (int ch = 0; ch < 3; ++ch)
       EXPECT_NEAR(e.mean[ch], exact[ch], 4.0 * e.se[ch])
           << "floor point (" << p.x() << ", " << p.y() << ") channel " << ch;
-    std::printf("floor (%g, %g): %.6f +- %.6f, exact %.6f (%s)\n", p.x(), p.y(), e.mean[0],
-                e.se[0], exact[0], next_event ? "NEE + MIS" : "BSDF only");
+    std::printf("floor (%g, %g): %.6f +- %.6f, exact %.6f (%s)\n", p.x(), p.y(), e.mean[0], e.se[0],
+                exact[0], next_event ? "NEE + MIS" : "BSDF only");
   }
 }
 
@@ -225,8 +226,9 @@ TEST(PathTracer, MirrorImageOfTheLamp) {
 // standard error squared over N), must average 1 over the pixels for every N. That is the
 // 1/sqrt(N) rate, and no bias shows up as N grows.
 TEST(PathTracer, MeanOverSeedsConvergesAtTheMonteCarloRate) {
-  Traced t(test::scene_from_json(test::closed_box_json(Vec3(1, 1, 1), 0.25, material_json(0.5), 1.0)));
-  t.scene.camera.width = t.scene.camera.height = 32;
+  Traced t(
+      test::scene_from_json(test::closed_box_json(Vec3(1, 1, 1), 0.25, material_json(0.5), 1.0)),
+      32, 32);
   const int runs = 64;
   const double exact = 2.0;
   const size_t pixels = 32 * 32;
@@ -239,7 +241,7 @@ TEST(PathTracer, MeanOverSeedsConvergesAtTheMonteCarloRate) {
     o.seed = 1000 + run;
     o.standard_error = true;
     o.progress = false;
-    PathTraceResult r = t.tracer->render(t.scene.camera, o);
+    PathTraceResult r = t.tracer->render(t.camera(), o);
     for (size_t p = 0; p < pixels; ++p) {
       sum[p] += r.image.rgb[3 * p];
       var[p] += std::pow(r.standard_error.rgb[3 * p], 2);
@@ -280,9 +282,7 @@ TEST(PathTracer, MeanOverSeedsConvergesAtTheMonteCarloRate) {
 // ---- determinism ----------------------------------------------------------------------------
 
 TEST(PathTracer, SameImageOnOneAndTwoThreads) {
-  Traced t(load_scene(test::scene_path("cornell-mirror-cube")));
-  t.scene.camera.width = 40;
-  t.scene.camera.height = 30;
+  Traced t(load_scene(test::scene_path("cornell-mirror-cube")), 40, 30);
   PathTraceOptions o;
   o.spp = 4;
   o.seed = 99;
@@ -290,15 +290,15 @@ TEST(PathTracer, SameImageOnOneAndTwoThreads) {
   o.progress = false;
   int before = omp_get_max_threads();
   omp_set_num_threads(1);
-  PathTraceResult one = t.tracer->render(t.scene.camera, o);
+  PathTraceResult one = t.tracer->render(t.camera(), o);
   omp_set_num_threads(2);
-  PathTraceResult two = t.tracer->render(t.scene.camera, o);
+  PathTraceResult two = t.tracer->render(t.camera(), o);
   omp_set_num_threads(before);
   ASSERT_EQ(one.image.rgb.size(), two.image.rgb.size());
   EXPECT_TRUE(one.image.rgb == two.image.rgb);
   EXPECT_EQ(one.stats.rays, two.stats.rays);
   o.seed = 100;
-  PathTraceResult other = t.tracer->render(t.scene.camera, o);
+  PathTraceResult other = t.tracer->render(t.camera(), o);
   EXPECT_FALSE(one.image.rgb == other.image.rgb);  // the seed matters
 }
 
@@ -308,17 +308,16 @@ TEST(PathTracer, SameImageOnOneAndTwoThreads) {
 // block, the walls) their region means agree within their combined standard error. A wrong
 // MIS weight or light density for a glossy lobe shows up as a difference.
 TEST(PathTracer, GlossyMisAgreesWithBsdfSampling) {
-  Traced t(load_scene(test::scene_path("cornell-glossy")));
-  t.scene.camera.width = t.scene.camera.height = 48;
-  RegionMap regions = object_regions(t.scene, t.patches, *t.caster);
+  Traced t(load_scene(test::scene_path("cornell-glossy")), 48, 48);
+  RegionMap regions = object_regions(*t.world);
   PathTraceOptions o;
   o.spp = 128;
   o.standard_error = true;
   o.progress = false;
-  PathTraceResult mis = t.tracer->render(t.scene.camera, o);
+  PathTraceResult mis = t.tracer->render(t.camera(), o);
   o.next_event = false;
   o.seed = 2;
-  PathTraceResult bsdf = t.tracer->render(t.scene.camera, o);
+  PathTraceResult bsdf = t.tracer->render(t.camera(), o);
   size_t n = regions.names.size();
   std::vector<Rgb> da(n, Rgb::Zero()), va(n, Rgb::Zero());
   std::vector<long long> count(n, 0);
@@ -341,36 +340,27 @@ TEST(PathTracer, GlossyMisAgreesWithBsdfSampling) {
 
 // ---- the command line ------------------------------------------------------------------------
 
-int run_cli(const std::string& args, std::string* out) {
-  auto dir = test::temp_dir();
-  std::string out_file = (dir / "output.txt").string();
-  std::string cmd = std::string(POLYRAD_CLI) + " --quiet " + args + " >" + out_file + " 2>&1";
-  int status = std::system(cmd.c_str());
-  std::ifstream in(out_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  *out = ss.str();
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 TEST(PathTracer, CommandWritesImageAndReport) {
   auto dir = test::temp_dir();
-  std::string img = (dir / "f.exr").string(), rep = (dir / "f.json").string(), out;
-  int code = run_cli("render " + test::scene_path("furnace") +
-                         " --method pathtrace --spp 2 --seed 3 -o " + img + " --report " + rep,
-                     &out);
-  ASSERT_EQ(code, 0) << out;
-  JsonValue r = parse_json(read_text_file(rep, "report"), rep);
-  for (const char* key : {"spp", "seed", "rays", "seconds", "peak_memory_bytes", "machine"})
+  std::string img = (dir / "f.exr").string(), rep = (dir / "f.json").string();
+  test::CommandRun run =
+      test::run_cli("render " + test::scene_path("furnace") +
+                    " --method pathtrace --spp 2 --seed 3 -o " + img + " --report " + rep);
+  ASSERT_EQ(run.code, 0) << run.err;
+  const JsonValue report = test::read_json(rep);
+  for (const char* key : {"pathtrace", "seconds", "peak_memory_bytes", "machine"})
+    ASSERT_NE(report.find(key), nullptr) << key;
+  const JsonValue& r = *report.find("pathtrace");
+  for (const char* key : {"spp", "seed", "rays", "seconds", "mean_relative_standard_error"})
     EXPECT_NE(r.find(key), nullptr) << key;
   EXPECT_EQ(r.find("spp")->number, 2.0);
   Image i = read_image(img);
   EXPECT_EQ(i.width, 64);
   // --patches has nothing to write for a path tracer: bad input, and no image.
   std::string img2 = (dir / "g.exr").string();
-  EXPECT_EQ(run_cli("render " + test::scene_path("furnace") + " --method pathtrace -o " + img2 +
-                        " --patches " + (dir / "p.csv").string(),
-                    &out),
+  EXPECT_EQ(test::run_cli("render " + test::scene_path("furnace") + " --method pathtrace -o " +
+                          img2 + " --patches " + (dir / "p.csv").string())
+                .code,
             2);
   EXPECT_FALSE(std::filesystem::exists(img2));
 }

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include "polyrad/util/sampling.h"
-
 #include "test_support.h"
 
 namespace polyrad {

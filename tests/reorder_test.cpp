@@ -12,10 +12,10 @@
 #include <random>
 #include <stdexcept>
 
+#include "polyrad/io/prt_file.h"
+#include "polyrad/solve/series_precompute.h"
 #include "polyrad/transport/system.h"
 #include "polyrad/util/hash.h"
-#include "polyrad/io/prt_file.h"
-#include "polyrad/solve/series.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -93,9 +93,7 @@ TEST(Reorder, EveryComponentAndIsolatedNodeIsPlacedOnce) {
 // ---- the precompute on the renumbered operator ------------------------------------------------
 
 std::unique_ptr<RadiositySystem> coarse(const std::string& scene) {
-  PipelineOptions o;
-  o.patch_size = 100;
-  return build_system(load_scene(test::scene_path(scene)), o);
+  return build_system(World::load(test::scene_path(scene), {.patch_size = 100}));
 }
 
 SeriesOperator precompute(const RadiositySystem& sys, SeriesReorder reorder, const Gather* gather,
@@ -107,7 +105,7 @@ SeriesOperator precompute(const RadiositySystem& sys, SeriesReorder reorder, con
   o.chebyshev_radius = 0.8;
   o.reorder = reorder;
   o.progress = false;
-  return precompute_series(sys.transport, sys.patches, sys.scene, gather, o);
+  return precompute_series(sys.transport, *sys.world, o, gather);
 }
 
 // Largest |a - b| / max |b| over all stored values (both dense, or both in the same layout).
@@ -143,10 +141,12 @@ TEST(Reorder, CornellBoxPrecomputeGivesTheSameQ) {
   auto sys = coarse("cornell-box");
   expect_same_operator(precompute(*sys, SeriesReorder::kNone, nullptr),
                        precompute(*sys, SeriesReorder::kRcm, nullptr));
-  expect_same_operator(precompute(*sys, SeriesReorder::kNone, nullptr, SeriesAcceleration::kChebyshev),
-                       precompute(*sys, SeriesReorder::kRcm, nullptr, SeriesAcceleration::kChebyshev));
-  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster, sys->transport);
-  expect_same_operator(precompute(*sys, SeriesReorder::kNone, &g), precompute(*sys, SeriesReorder::kRcm, &g));
+  expect_same_operator(
+      precompute(*sys, SeriesReorder::kNone, nullptr, SeriesAcceleration::kChebyshev),
+      precompute(*sys, SeriesReorder::kRcm, nullptr, SeriesAcceleration::kChebyshev));
+  Gather g = build_gather(*sys->world, sys->transport.layout());
+  expect_same_operator(precompute(*sys, SeriesReorder::kNone, &g),
+                       precompute(*sys, SeriesReorder::kRcm, &g));
 }
 
 TEST(Reorder, MirrorLinksPrecomputeGivesTheSameQ) {
@@ -159,10 +159,10 @@ TEST(Reorder, MirrorLinksPrecomputeGivesTheSameQ) {
 }
 
 TEST(Reorder, OnTheFlyLinkRowsAreRefused) {
-  PipelineOptions o;
-  o.patch_size = 200;
+  SystemOptions o;
   o.specular_on_the_fly = true;
-  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")), o);
+  auto sys =
+      build_system(World::load(test::scene_path("cornell-mirror-cube"), {.patch_size = 200}), o);
   EXPECT_THROW(precompute(*sys, SeriesReorder::kRcm, nullptr), InputError);
 }
 
@@ -174,7 +174,8 @@ std::string read_bytes(const std::string& path) {
 }
 
 // The bytes with their checksum recomputed, written to dir/name.
-std::string with_checksum(std::string bytes, const std::filesystem::path& dir, const std::string& name) {
+std::string with_checksum(std::string bytes, const std::filesystem::path& dir,
+                          const std::string& name) {
   std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
   std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
   return test::write_file(dir, name, bytes);

@@ -1,26 +1,28 @@
-// The precomputed power series against the iterative solver and the bounds of METHOD.md sec. 5.
-#include "polyrad/solve/series.h"
-
+// The precomputed power series against the iterative solver and the bounds of
+// papers/glossy-radiosity.md, section 5.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
 
-#include "polyrad/transport/system.h"
 #include "polyrad/io/prt_file.h"
+#include "polyrad/solve/series_precompute.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
 #include "test_support.h"
 
 namespace polyrad {
 namespace {
 
 std::unique_ptr<RadiositySystem> system_of(const std::string& name) {
-  return build_system(load_scene(test::scene_path(name)));
+  return build_system(World::load(test::scene_path(name)));
 }
 
-SeriesOperator solution_series(const RadiositySystem& sys, int order, SeriesBasis basis = SeriesBasis::kPatch,
-                               ValuePrecision precision = ValuePrecision::kFloat, double drop = 0.0) {
+SeriesOperator solution_series(const RadiositySystem& sys, int order,
+                               SeriesBasis basis = SeriesBasis::kPatch,
+                               ValuePrecision precision = ValuePrecision::kFloat,
+                               double drop = 0.0) {
   SeriesOptions o;
   o.order = order;
   o.output = SeriesOutput::kSolution;
@@ -28,7 +30,7 @@ SeriesOperator solution_series(const RadiositySystem& sys, int order, SeriesBasi
   o.precision = precision;
   o.drop = drop;
   o.progress = false;
-  return precompute_series(sys.transport, sys.patches, sys.scene, nullptr, o);
+  return precompute_series(sys.transport, *sys.world, o);
 }
 
 Field product(const SeriesOperator& q, const std::map<std::string, Rgb>& lights = {}) {
@@ -94,7 +96,7 @@ TEST(Series, ToleranceIsMet) {
       o.output = SeriesOutput::kSolution;
       o.basis = SeriesBasis::kObject;
       o.progress = false;
-      SeriesOperator q = precompute_series(t, sys->patches, sys->scene, nullptr, o);
+      SeriesOperator q = precompute_series(t, *sys->world, o);
       double error = t.flux_norm(product(q) - exact) / t.flux_norm(exact);
       EXPECT_LT(error, tol) << scene << " tolerance " << tol << " K " << q.report.order;
       EXPECT_GT(q.report.order, 0);
@@ -107,22 +109,32 @@ Scene two_lights() {
   std::ifstream in(test::scene_path("cornell-box"));
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto at = text.find(R"({"name": "light")");
-  text.replace(at, std::string::npos, R"({"name": "left_lamp", "material": "lamp", "emission": [17, 12, 4], "patch_size": 20,
+  text.replace(
+      at, std::string::npos,
+      R"({"name": "left_lamp", "material": "lamp", "emission": [17, 12, 4], "patch_size": 20,
      "polygon": [[343, 548.3, 227], [343, 548.3, 332], [278, 548.3, 332], [278, 548.3, 227]]},
     {"name": "right_lamp", "material": "lamp", "emission": [4, 12, 17], "patch_size": 20,
      "polygon": [[278, 548.3, 227], [278, 548.3, 332], [213, 548.3, 332], [213, 548.3, 227]]}
   ]
 })");
   auto dir = test::temp_dir();
-  test::write_file(dir, "meshes/short_block.obj",
-                   std::string(std::istreambuf_iterator<char>(std::ifstream(std::string(POLYRAD_SCENES_DIR) + "/meshes/short_block.obj").rdbuf()), {}));
-  test::write_file(dir, "meshes/tall_block.obj",
-                   std::string(std::istreambuf_iterator<char>(std::ifstream(std::string(POLYRAD_SCENES_DIR) + "/meshes/tall_block.obj").rdbuf()), {}));
+  test::write_file(
+      dir, "meshes/short_block.obj",
+      std::string(
+          std::istreambuf_iterator<char>(
+              std::ifstream(std::string(POLYRAD_SCENES_DIR) + "/meshes/short_block.obj").rdbuf()),
+          {}));
+  test::write_file(
+      dir, "meshes/tall_block.obj",
+      std::string(
+          std::istreambuf_iterator<char>(
+              std::ifstream(std::string(POLYRAD_SCENES_DIR) + "/meshes/tall_block.obj").rdbuf()),
+          {}));
   return test::scene_from_json(text, dir);
 }
 
 TEST(Series, RelightingIsLinear) {
-  auto sys = build_system(two_lights());
+  auto sys = build_system(World::build(two_lights()));
   SeriesOperator q = solution_series(*sys, 12);
   const Rgb a(3, 2, 1), b(0.5, 4, 2), off(0, 0, 0);
   Field left = product(q, {{"left_lamp", a}, {"right_lamp", off}});
@@ -134,7 +146,7 @@ TEST(Series, RelightingIsLinear) {
   EXPECT_LT((doubled - 2.0 * left).cwiseAbs().maxCoeff(), 1e-5 * scale);
   Field dark = product(q, {{"left_lamp", off}, {"right_lamp", off}});
   EXPECT_EQ(dark.cwiseAbs().maxCoeff(), 0.0);
-  EXPECT_GT(left.col(0).sum(), left.col(2).sum());   // the warm lamp alone is red-heavy
+  EXPECT_GT(left.col(0).sum(), left.col(2).sum());  // the warm lamp alone is red-heavy
   EXPECT_THROW(q.column_emission({{"nonexistent", a}}), InputError);
 }
 
@@ -169,26 +181,29 @@ TEST(Series, HalfPrecisionStaysWithinItsRounding) {
   SeriesOperator q = solution_series(*sys, 10);
   const double e_max = 17.0;  // the lamp's largest channel
   for (Eigen::Index r = 0; r < f.rows(); ++r) {
-    double entries = q.dense() ? static_cast<double>(q.cols()) : static_cast<double>(q.start()[r + 1] - q.start()[r]);
+    double entries = q.dense() ? static_cast<double>(q.cols())
+                               : static_cast<double>(q.start()[r + 1] - q.start()[r]);
     for (int c = 0; c < 3; ++c)
-      EXPECT_NEAR(h(r, c), f(r, c), std::ldexp(1.0, -11) * std::abs(f(r, c)) + entries * std::ldexp(1.0, -25) * e_max)
+      EXPECT_NEAR(h(r, c), f(r, c),
+                  std::ldexp(1.0, -11) * std::abs(f(r, c)) + entries * std::ldexp(1.0, -25) * e_max)
           << "row " << r;
   }
 }
 
 TEST(Series, ViewModeIsTheGatherOfTheSolution) {
   auto sys = system_of("cornell-mirror-cube");
-  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster, sys->transport);
+  Gather g = build_gather(*sys->world, sys->transport.layout());
   SeriesOptions o;
   o.order = 9;
   o.progress = false;
-  SeriesOperator view = precompute_series(sys->transport, sys->patches, sys->scene, &g, o);
+  SeriesOperator view = precompute_series(sys->transport, *sys->world, o, &g);
   std::vector<float> e = view.column_emission(), out(3 * view.rows());
   view.apply(e.data(), out.data());
   Image a = series_image(view, out);
   Image b = apply_gather(g, product(solution_series(*sys, 9)));
   double worst = 0.0;
-  for (size_t k = 0; k < a.rgb.size(); ++k) worst = std::max(worst, static_cast<double>(std::abs(a.rgb[k] - b.rgb[k])));
+  for (size_t k = 0; k < a.rgb.size(); ++k)
+    worst = std::max(worst, static_cast<double>(std::abs(a.rgb[k] - b.rgb[k])));
   EXPECT_LT(worst, 1e-4);
 }
 
@@ -207,7 +222,7 @@ TEST(Series, FileRoundTripsAndIsRefusedWhenDamaged) {
   EXPECT_EQ(back.gather.light_samples, 7);
   EXPECT_EQ(back.rows(), q.rows());
   EXPECT_EQ(back.report.order, 6);
-  EXPECT_EQ(back.scene_hash, sys->scene.hash);
+  EXPECT_EQ(back.scene_hash, sys->scene().hash);
   EXPECT_EQ(back.layout.size(), q.layout.size());
   EXPECT_EQ((product(back) - product(q)).cwiseAbs().maxCoeff(), 0.0);
 
@@ -243,9 +258,10 @@ namespace polyrad {
 namespace {
 
 TEST(Series, DenseAndSparseLayoutsGiveTheSameProduct) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
+  auto sys = build_system(World::load(test::scene_path("cornell-mirror-cube")));
   // Dropping half of each column's energy leaves a sparse operator.
-  SeriesOperator sparse = solution_series(*sys, 8, SeriesBasis::kPatch, ValuePrecision::kFloat, 0.5);
+  SeriesOperator sparse =
+      solution_series(*sys, 8, SeriesBasis::kPatch, ValuePrecision::kFloat, 0.5);
   ASSERT_FALSE(sparse.dense());
   Field a = product(sparse);
   auto dir = test::temp_dir();
@@ -260,11 +276,11 @@ TEST(Series, DenseAndSparseLayoutsGiveTheSameProduct) {
   EXPECT_TRUE(back.dense());
   EXPECT_EQ((product(back) - a).cwiseAbs().maxCoeff(), 0.0);
   // A view operator is dense: every pixel sees some light of every lamp patch.
-  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster, sys->transport);
+  Gather g = build_gather(*sys->world, sys->transport.layout());
   SeriesOptions o;
   o.order = 4;
   o.progress = false;
-  EXPECT_TRUE(precompute_series(sys->transport, sys->patches, sys->scene, &g, o).dense());
+  EXPECT_TRUE(precompute_series(sys->transport, *sys->world, o, &g).dense());
 }
 
 }  // namespace

@@ -18,7 +18,7 @@ std::unique_ptr<RadiositySystem> furnace(double albedo, double patch_size = 0.25
                                       test::closed_box_json(Vec3(1, 1, 1), patch_size, m, 1.0));
   SceneOptions options;
   options.allow_unsafe_albedo = unsafe;
-  return build_system(load_scene(path, options));
+  return build_system(World::load(path, {}, options));
 }
 
 class Furnace : public ::testing::TestWithParam<std::tuple<double, SolveMethod>> {};
@@ -42,7 +42,7 @@ INSTANTIATE_TEST_SUITE_P(AlbedoAndMethod, Furnace,
                                                               SolveMethod::kGaussSeidel)));
 
 TEST(Solver, JacobiAndGaussSeidelAgreeOnTheCornellBox) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-box")));
+  auto sys = build_system(World::load(test::scene_path("cornell-box")));
   for (double tol : {1e-3, 1e-6}) {
     SolveOptions o;
     o.tolerance = tol;
@@ -62,7 +62,7 @@ TEST(Solver, JacobiAndGaussSeidelAgreeOnTheCornellBox) {
 }
 
 TEST(Solver, JacobiSweepsAreThePowerSeries) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-box")));
+  auto sys = build_system(World::load(test::scene_path("cornell-box")));
   const auto& t = sys->transport;
   Field e = t.emission();
   Field term = e, sum = e, next;
@@ -80,7 +80,7 @@ TEST(Solver, JacobiSweepsAreThePowerSeries) {
 }
 
 TEST(Solver, EnergyOfEachSweepShrinksGeometrically) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-box")));
+  auto sys = build_system(World::load(test::scene_path("cornell-box")));
   SolveOptions o;
   o.method = SolveMethod::kJacobi;
   o.tolerance = 1e-8;
@@ -88,7 +88,8 @@ TEST(Solver, EnergyOfEachSweepShrinksGeometrically) {
   ASSERT_TRUE(r.ok());
   // ||T^n e|| in the flux norm shrinks by at most the largest albedo per sweep (section 5).
   for (size_t k = 1; k < r.sweep_residual.size(); ++k)
-    EXPECT_LE(r.sweep_residual[k], sys->transport.max_albedo() * r.sweep_residual[k - 1] * (1 + 1e-6));
+    EXPECT_LE(r.sweep_residual[k],
+              sys->transport.max_albedo() * r.sweep_residual[k - 1] * (1 + 1e-6));
 }
 
 TEST(Solver, DivergenceIsAStatusNotNaN) {

@@ -1,11 +1,12 @@
-// Where methods fail (METHOD.md section 9): albedo near 1, albedo above 1, leaks, long sums.
+// Where methods fail (papers/glossy-radiosity.md, section 11): albedo near 1, albedo above 1,
+// leaks, long sums.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "polyrad/transport/system.h"
-#include "polyrad/solve/series.h"
+#include "polyrad/solve/series_precompute.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -18,7 +19,7 @@ std::string stability_scene(const std::string& name) {
 std::unique_ptr<RadiositySystem> system_of(const std::string& name, bool unsafe = false) {
   SceneOptions o;
   o.allow_unsafe_albedo = unsafe;
-  return build_system(load_scene(stability_scene(name), o));
+  return build_system(World::load(stability_scene(name), {}, o));
 }
 
 Field reference(const RadiositySystem& sys) {
@@ -32,7 +33,8 @@ Field reference(const RadiositySystem& sys) {
 
 // Products needed to reach relative error 1e-3 against the reference.
 long long products_to(const RadiositySystem& sys, SolveMethod method, const Field& ref) {
-  return measure_convergence(sys.transport, sys.transport.emission(), ref, method, 1e-3, 1, 20000).products;
+  return measure_convergence(sys.transport, sys.transport.emission(), ref, method, 1e-3, 1, 20000)
+      .products;
 }
 
 TEST(Stability, SweepsGrowAsTheAlbedoNearsOneAndTheAcceleratedMethodsDoNot) {
@@ -74,8 +76,8 @@ TEST(Stability, ChebyshevSeriesKeepsOneProductAndMeetsItsTolerance) {
   plain.basis = cheb.basis = SeriesBasis::kObject;
   plain.progress = cheb.progress = false;
   cheb.acceleration = SeriesAcceleration::kChebyshev;
-  SeriesOperator p = precompute_series(t, sys->patches, sys->scene, nullptr, plain);
-  SeriesOperator c = precompute_series(t, sys->patches, sys->scene, nullptr, cheb);
+  SeriesOperator p = precompute_series(t, *sys->world, plain);
+  SeriesOperator c = precompute_series(t, *sys->world, cheb);
   auto error = [&](const SeriesOperator& q) {
     std::vector<float> e = q.column_emission(), out(3 * q.rows());
     q.apply(e.data(), out.data());
@@ -84,7 +86,7 @@ TEST(Stability, ChebyshevSeriesKeepsOneProductAndMeetsItsTolerance) {
   EXPECT_LT(error(c), 1e-3);
   EXPECT_LT(error(p), 1e-3);
   EXPECT_LT(c.report.order * 4, p.report.order);  // 0.99: hundreds of terms against dozens
-  EXPECT_EQ(c.nnz(), p.nnz());                      // the same single product at run time
+  EXPECT_EQ(c.nnz(), p.nnz());                    // the same single product at run time
 }
 
 TEST(Stability, ChebyshevFailsLoudlyOnFacingMirrors) {
@@ -110,7 +112,7 @@ TEST(Stability, AlbedoAboveOneIsDetectedAndNamed) {
       SolveOptions o;
       o.method = m;
       SolveResult r = solve(sys->transport, sys->transport.emission(), o);
-      EXPECT_EQ(r.status, SolveStatus::kDiverged) << scene << " " << solve_method_name(m);
+      EXPECT_EQ(r.status, SolveStatus::kDiverged) << scene << " " << enum_name(m);
       EXPECT_NE(r.message.find(culprit), std::string::npos) << r.message;
       EXPECT_TRUE(r.u.allFinite());
     }
@@ -118,7 +120,7 @@ TEST(Stability, AlbedoAboveOneIsDetectedAndNamed) {
     so.output = SeriesOutput::kSolution;
     so.progress = false;
     try {
-      precompute_series(sys->transport, sys->patches, sys->scene, nullptr, so);
+      precompute_series(sys->transport, *sys->world, so);
       ADD_FAILURE() << "the series of " << scene << " did not diverge";
     } catch (const NumericalError& e) {
       EXPECT_NE(std::string(e.what()).find(culprit), std::string::npos) << e.what();
@@ -138,15 +140,15 @@ TEST(Stability, TouchingAndIntersectingBoxesDoNotLeak) {
   for (PatchId i = 0; i < t.num_patches(); ++i) {
     double flux = t.flux_weight()[i] * r.u.row(i).sum();
     total += flux;
-    const std::string& name = sys->scene.objects[sys->patches[i].object].name;
+    const std::string& name = sys->scene().objects[sys->patches()[i].object].name;
     if (name.rfind("sealed_in_", 0) == 0) inside += flux;
   }
   // The sealed box's inside receives no light at all: no ray may pass its walls.
   EXPECT_EQ(inside, 0.0);
   // Where box C cuts into box A, A's faces are buried: their exposed area is (nearly) nothing.
   for (PatchId i = 0; i < t.num_patches(); ++i) {
-    const Patch& p = sys->patches[i];
-    const std::string& name = sys->scene.objects[p.object].name;
+    const Patch& p = sys->patches()[i];
+    const std::string& name = sys->scene().objects[p.object].name;
     bool in_c = p.centroid.x() > 0.62 && p.centroid.x() < 0.98 && p.centroid.z() > 0.62 &&
                 p.centroid.z() < 0.98 && p.centroid.y() < 0.68;
     if (name.rfind("box_a_", 0) == 0 && in_c) {
@@ -167,11 +169,11 @@ TEST(Stability, SliversSharingEdgesStayFiniteAndAgreeWithTheirNeighbours) {
   double sliver = 0.0, floor = 0.0;
   int ns = 0, nf = 0;
   for (PatchId i = 0; i < t.num_patches(); ++i) {
-    const std::string& name = sys->scene.objects[sys->patches[i].object].name;
+    const std::string& name = sys->scene().objects[sys->patches()[i].object].name;
     if (name.rfind("sliver_", 0) == 0) {
       sliver += r.u(i, 0);
       ++ns;
-    } else if (name == "floor_rest" && sys->patches[i].centroid.z() < 0.2) {
+    } else if (name == "floor_rest" && sys->patches()[i].centroid.z() < 0.2) {
       floor += r.u(i, 0);
       ++nf;
     }
@@ -197,25 +199,24 @@ TEST(Stability, LongSumsNeedDoubleAccumulation) {
   }
   double err_d = t.flux_norm(sum_d - ref) / t.flux_norm(ref);
   double err_f = t.flux_norm(Field(sum_f.cast<double>()) - ref) / t.flux_norm(ref);
-  EXPECT_LT(err_d, 1e-9);            // 0.9^201 / 0.1 = 6e-9 truncation, less on this furnace
-  EXPECT_GT(err_f, 10 * err_d);      // float accumulation is what limits it
+  EXPECT_LT(err_d, 1e-9);        // 0.9^201 / 0.1 = 6e-9 truncation, less on this furnace
+  EXPECT_GT(err_f, 10 * err_d);  // float accumulation is what limits it
   EXPECT_LT(err_f, 1e-5);
   RecordProperty("relative_error_double", std::to_string(err_d));
   RecordProperty("relative_error_float", std::to_string(err_f));
 }
 
 TEST(Stability, MemoryBudgetRefusesHugeScenesUpFront) {
-  PipelineOptions o;
-  o.patch_size = 0.5;  // the Cornell box in half-millimetre patches: millions of them
+  // The Cornell box in half-millimetre patches: millions of them.
   try {
-    build_system(load_scene(test::scene_path("cornell-box")), o);
+    build_system(load_scene(test::scene_path("cornell-box")), {.patch_size = 0.5});
     ADD_FAILURE() << "accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("estimated"), std::string::npos) << e.what();
   }
-  o.patch_size = 0.0;
+  SystemOptions o;
   o.max_memory_bytes = 1e6;  // 1 MB: too little even for the default mesh
-  EXPECT_THROW(build_system(load_scene(test::scene_path("cornell-box")), o), InputError);
+  EXPECT_THROW(build_system(World::load(test::scene_path("cornell-box")), o), InputError);
 }
 
 }  // namespace

@@ -19,26 +19,10 @@ namespace {
 const std::string kPython = "/usr/bin/python3";
 const std::string kCharts = std::string(POLYRAD_SCRIPTS_DIR) + "/charts.py";
 
-struct CommandRun {
-  int code;
-  std::string out, err;
-};
-
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-CommandRun run_shell(const std::string& command) {
-  auto dir = test::temp_dir();
-  std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  int status = std::system((command + " >" + out + " 2>" + err).c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(out), read_text(err)};
-}
-
-CommandRun run_cli(const std::string& args) { return run_shell(std::string(POLYRAD_CLI) + " --quiet " + args); }
+using test::CommandRun;
+using test::read_text;
+using test::run_cli;
+using test::run_shell;
 
 // python3 with matplotlib is a listed dependency (scripts/deps.sh installs python3-matplotlib):
 // its absence fails the test with the reason, it is not skipped.
@@ -88,7 +72,8 @@ Csv read_csv(const std::filesystem::path& path) {
     auto cells = split(line);
     EXPECT_EQ(cells.size(), csv.header.size()) << line;
     std::map<std::string, std::string> row;
-    for (size_t c = 0; c < csv.header.size() && c < cells.size(); ++c) row[csv.header[c]] = cells[c];
+    for (size_t c = 0; c < csv.header.size() && c < cells.size(); ++c)
+      row[csv.header[c]] = cells[c];
     csv.rows.push_back(row);
   }
   return csv;
@@ -117,11 +102,13 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
         "a_max", "apriori_bound_rel", "solution_error_flux_rel", "error_vs_converged_rel_l1",
         "error_vs_converged_rel_rmse", "error_vs_converged_mean_rel", "error_vs_reference_rel_l1"})
     EXPECT_TRUE(has(csv.header, column)) << column;
-  CommandRun wanted = run_shell(kPython + " -c \"import sys; sys.path.insert(0, '" + std::string(POLYRAD_SCRIPTS_DIR) +
-                         "'); import charts; print(','.join(charts.COLUMNS))\"");
+  CommandRun wanted = run_shell(kPython + " -c \"import sys; sys.path.insert(0, '" +
+                                std::string(POLYRAD_SCRIPTS_DIR) +
+                                "'); import charts; print(','.join(charts.COLUMNS))\"");
   ASSERT_EQ(wanted.code, 0) << wanted.err;
   for (const std::string& column : split(wanted.out.substr(0, wanted.out.find('\n'))))
-    EXPECT_TRUE(has(csv.header, column)) << "charts.py reads '" << column << "', the sweep lacks it";
+    EXPECT_TRUE(has(csv.header, column))
+        << "charts.py reads '" << column << "', the sweep lacks it";
 
   // Per patch size: the converged row, 2 solvers x 2 sweep counts, 3 orders x 2 drops x 2
   // precisions, 2 path-traced images.
@@ -139,10 +126,12 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
     EXPECT_GT(csv.number(i, "operator_bytes"), 0.0) << i;
     // The a-priori bound bounds the measured error of the solution (papers/, section 5).
     if (m != "converged") {
-      EXPECT_LE(csv.number(i, "solution_error_flux_rel"), csv.number(i, "apriori_bound_rel") * (1 + 1e-9)) << i;
+      EXPECT_LE(csv.number(i, "solution_error_flux_rel"),
+                csv.number(i, "apriori_bound_rel") * (1 + 1e-9))
+          << i;
     }
-    if (m == "series" && csv.rows[i].at("drop_fraction") == "0" && csv.rows[i].at("precision") == "float" &&
-        csv.rows[i].at("order_K") == "8") {
+    if (m == "series" && csv.rows[i].at("drop_fraction") == "0" &&
+        csv.rows[i].at("precision") == "float" && csv.rows[i].at("order_K") == "8") {
       EXPECT_LT(csv.number(i, "error_vs_converged_rel_l1"), 0.02) << i;
     }
   }
@@ -172,12 +161,14 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
 
   // A rerun reuses the cached reference; another sample count makes it stale.
-  CommandRun again = run_cli("sweep " + scene + " --out " + out + " --patch-sizes 200 --orders 1 --drops 0"
-                      " --precisions float --sweeps 1 --spp 1 --reference-spp 8");
+  CommandRun again = run_cli("sweep " + scene + " --out " + out +
+                             " --patch-sizes 200 --orders 1 --drops 0"
+                             " --precisions float --sweeps 1 --spp 1 --reference-spp 8");
   ASSERT_EQ(again.code, 0) << again.err;
   EXPECT_NE(again.err.find("reusing"), std::string::npos) << again.err;
-  CommandRun stale = run_cli("sweep " + scene + " --out " + out + " --patch-sizes 200 --orders 1 --drops 0"
-                      " --precisions float --sweeps 1 --spp 1 --reference-spp 4");
+  CommandRun stale = run_cli("sweep " + scene + " --out " + out +
+                             " --patch-sizes 200 --orders 1 --drops 0"
+                             " --precisions float --sweeps 1 --spp 1 --reference-spp 4");
   ASSERT_EQ(stale.code, 0) << stale.err;
   EXPECT_NE(stale.err.find("stale"), std::string::npos) << stale.err;
   EXPECT_EQ(read_csv(std::filesystem::path(out) / "sweep.csv").rows.size(), 1u + 2 + 1 + 1);
@@ -193,8 +184,7 @@ TEST(Sweep, BadInputIsExitTwoAndWritesNothing) {
            "sweep " + scene + " --out " + out + " --precisions double",
            "sweep " + scene + " --out " + out + " --patch-sizes 0",
            "sweep " + scene + " --out " + out + " --drops 1.5",
-           "sweep " + scene + " --out " + out + " --spp 0",
-           "sweep " + scene + " --out " + file,
+           "sweep " + scene + " --out " + out + " --spp 0", "sweep " + scene + " --out " + file,
            "sweep " + (dir / "none.json").string() + " --out " + out, "sweep " + scene}) {
     CommandRun r = run_cli(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;

@@ -1,5 +1,6 @@
 #include "test_support.h"
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -15,8 +16,8 @@ namespace {
 struct TempRoot {
   std::filesystem::path path;
   TempRoot() {
-    path = std::filesystem::temp_directory_path() /
-           ("polyrad-test-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
+    path = std::filesystem::temp_directory_path() / ("polyrad-test-" + std::to_string(::getpid()) +
+                                                     "-" + std::to_string(std::random_device{}()));
     std::filesystem::create_directories(path);
   }
   ~TempRoot() {
@@ -92,7 +93,10 @@ std::string closed_box_json(const Vec3& size, double patch_size,
     s << "[" << a << ", " << b << ", " << c << "]";
     return s.str();
   };
-  struct F { const char* name; std::string poly; };
+  struct F {
+    const char* name;
+    std::string poly;
+  };
   std::vector<F> faces = {
       {"floor", pt(0, 0, 0) + "," + pt(0, 0, z) + "," + pt(x, 0, z) + "," + pt(x, 0, 0)},
       {"ceiling", pt(0, y, 0) + "," + pt(x, y, 0) + "," + pt(x, y, z) + "," + pt(0, y, z)},
@@ -102,8 +106,9 @@ std::string closed_box_json(const Vec3& size, double patch_size,
       {"front", pt(0, 0, 0) + "," + pt(x, 0, 0) + "," + pt(x, y, 0) + "," + pt(0, y, 0)},
   };
   std::ostringstream s;
-  s << "{\"camera\": {\"position\": " << pt(x / 2, y / 2, z * 0.05) << ", \"look_at\": "
-    << pt(x / 2, y / 2, z) << ", \"fov_deg\": 90, \"width\": 32, \"height\": 32},\n"
+  s << "{\"camera\": {\"position\": " << pt(x / 2, y / 2, z * 0.05)
+    << ", \"look_at\": " << pt(x / 2, y / 2, z)
+    << ", \"fov_deg\": 90, \"width\": 32, \"height\": 32},\n"
     << "\"patch_size\": " << patch_size << ",\n\"materials\": {";
   for (size_t f = 0; f < faces.size(); ++f)
     s << "\"m" << f << "\": " << face_materials.at(f) << (f + 1 < faces.size() ? ", " : "");
@@ -143,7 +148,8 @@ namespace polyrad::test {
 double parallel_offset_rectangles_ff(double x1, double x2, double y1, double y2, double xi1,
                                      double xi2, double eta1, double eta2, double c) {
   // A1 F12 = 1/(2 pi) sum (-1)^(i+j+k+l) G(x_i - xi_k, y_j - eta_l), with
-  // G(u, v) = v sqrt(u^2 + c^2) atan(v / sqrt(u^2 + c^2)) + u sqrt(v^2 + c^2) atan(u / sqrt(v^2 + c^2))
+  // G(u, v) = v sqrt(u^2 + c^2) atan(v / sqrt(u^2 + c^2)) + u sqrt(v^2 + c^2) atan(u / sqrt(v^2 +
+  // c^2))
   //           - c^2 / 2 ln(u^2 + v^2 + c^2).
   auto g = [c](double u, double v) {
     double su = std::sqrt(u * u + c * c), sv = std::sqrt(v * v + c * c);
@@ -158,6 +164,32 @@ double parallel_offset_rectangles_ff(double x1, double x2, double y1, double y2,
         for (int l = 0; l < 2; ++l)
           sum += ((i + j + k + l) % 2 == 0 ? 1.0 : -1.0) * g(xs[i] - xis[k], ys[j] - etas[l]);
   return sum / (2.0 * kPi * (x2 - x1) * (y2 - y1));
+}
+
+}  // namespace polyrad::test
+
+namespace polyrad::test {
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+JsonValue read_json(const std::filesystem::path& path) {
+  return parse_json(read_text(path), path.string());
+}
+
+CommandRun run_shell(const std::string& command) {
+  auto dir = temp_dir();
+  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
+  const int status = std::system((command + " >" + out + " 2>" + err).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(out), read_text(err)};
+}
+
+CommandRun run_cli(const std::string& args) {
+  return run_shell(std::string(POLYRAD_CLI) + " --quiet " + args);
 }
 
 }  // namespace polyrad::test

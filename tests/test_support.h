@@ -1,4 +1,5 @@
-// Helpers shared by the test programs: temporary folders, scenes built from text, patches.
+// Helpers shared by the test programs: temporary folders, files, scenes built from text, patches,
+// runs of the command line, and closed forms of the form factor.
 #pragma once
 
 #include <filesystem>
@@ -7,6 +8,7 @@
 
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/scene/scene.h"
+#include "polyrad/util/json.h"
 
 namespace polyrad::test {
 
@@ -16,6 +18,19 @@ std::filesystem::path temp_dir();
 // Writes text to dir/name and returns the path.
 std::string write_file(const std::filesystem::path& dir, const std::string& name,
                        const std::string& text);
+
+// The whole of a file ("" when it cannot be read), and a JSON file parsed (InputError if not).
+std::string read_text(const std::filesystem::path& path);
+JsonValue read_json(const std::filesystem::path& path);
+
+// A command's exit code and what it wrote on stdout and stderr.
+struct CommandRun {
+  int code = -1;
+  std::string out, err;
+};
+CommandRun run_shell(const std::string& command);
+// `polyrad --quiet ARGS`, the binary of this build.
+CommandRun run_cli(const std::string& args);
 
 // Loads a scene from JSON text (written to a temporary file so mesh paths resolve there).
 Scene scene_from_json(const std::string& json, const std::filesystem::path& dir = {});
@@ -36,8 +51,8 @@ std::string closed_box_json(const Vec3& size, double patch_size,
                             const std::vector<std::string>& face_materials, double emission);
 
 // The form factor of two directly opposed parallel a x b rectangles at distance c
-// (METHOD.md section 8) and of perpendicular rectangles sharing an edge of length l, from the
-// w-side to the h-side.
+// (papers/glossy-radiosity.md, section 10) and of perpendicular rectangles sharing an edge of
+// length l, from the w-side to the h-side.
 double parallel_rectangles_ff(double a, double b, double c);
 double perpendicular_rectangles_ff(double l, double w, double h);
 

@@ -1,4 +1,5 @@
-// The link transport operator against answers known exactly (METHOD.md section 8).
+// The link transport operator against answers known exactly (papers/glossy-radiosity.md,
+// section 10).
 #include "polyrad/transport/transport.h"
 
 #include <gtest/gtest.h>
@@ -7,8 +8,8 @@
 #include <sstream>
 
 #include "polyrad/render/camera_gather.h"
-#include "polyrad/transport/system.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -23,21 +24,19 @@ std::string grey(const char* type, double a) {
 std::string half_and_half(double a) {  // diffuse a/2 plus a perfect mirror lobe a/2
   std::ostringstream s;
   double h = a / 2;
-  s << R"({"type": "glossy", "diffuse": [)" << h << ", " << h << ", " << h
-    << R"(], "specular": [)" << h << ", " << h << ", " << h << R"(], "roughness": 0})";
+  s << R"({"type": "glossy", "diffuse": [)" << h << ", " << h << ", " << h << R"(], "specular": [)"
+    << h << ", " << h << ", " << h << R"(], "roughness": 0})";
   return s.str();
 }
 
 TEST(Transport, ADiffuseSceneBuildsTheClassicSystem) {
-  PipelineOptions with, without;
-  without.specular_transport = false;
-  auto a = build_system(load_scene(test::scene_path("cornell-box")), with);
-  auto b = build_system(load_scene(test::scene_path("cornell-box")), without);
+  auto a = build_system(World::load(test::scene_path("cornell-box")));
+  auto b = build_system(World::load(test::scene_path("cornell-box"), {.classic = true}));
   EXPECT_EQ(a->transport.num_links(), 0);
-  EXPECT_EQ(a->transport.size(), static_cast<Eigen::Index>(a->patches.size()));
+  EXPECT_EQ(a->transport.size(), static_cast<Eigen::Index>(a->patches().size()));
   EXPECT_EQ(a->transport.weights().value, b->transport.weights().value);
   // Against a dense direct solve of B = E + diag(d) F B.
-  const auto n = static_cast<Eigen::Index>(a->patches.size());
+  const auto n = static_cast<Eigen::Index>(a->patches().size());
   Eigen::MatrixXd f = Eigen::MatrixXd::Zero(n, n);
   const auto& ff = a->form_factors.f;
   for (Eigen::Index i = 0; i < n; ++i)
@@ -49,8 +48,8 @@ TEST(Transport, ADiffuseSceneBuildsTheClassicSystem) {
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd d(n), e(n);
     for (Eigen::Index i = 0; i < n; ++i) {
-      d[i] = a->scene.materials[a->patches[i].material].diffuse[c];
-      e[i] = a->patches[i].emission[c];
+      d[i] = a->scene().materials[a->patches()[i].material].diffuse[c];
+      e[i] = a->patches()[i].emission[c];
     }
     Eigen::MatrixXd m = Eigen::MatrixXd::Identity(n, n) - d.asDiagonal() * f;
     Eigen::VectorXd exact = m.partialPivLu().solve(e);
@@ -69,7 +68,7 @@ TEST_P(MixedFurnace, RadianceIsEmissionOverOneMinusAlbedoEverywhere) {
                             {grey("diffuse", a), grey("mirror", a), half_and_half(a),
                              grey("mirror", a), grey("diffuse", a), half_and_half(a)},
                             1.0));
-  auto sys = build_system(load_scene(path));
+  auto sys = build_system(World::load(path));
   const auto& t = sys->transport;
   ASSERT_GT(t.num_links(), 0);
   SolveOptions o;
@@ -83,16 +82,16 @@ TEST_P(MixedFurnace, RadianceIsEmissionOverOneMinusAlbedoEverywhere) {
     double radiance = r.u(link.from, 0) + r.u(t.num_patches() + l, 0);
     ASSERT_NEAR(radiance, expect, 5e-3 * expect)
         << "link " << link.from << "->" << link.to << " B " << r.u(link.from, 0) << " objects "
-        << sys->patches[link.from].object << "->" << sys->patches[link.to].object;
+        << sys->patches()[link.from].object << "->" << sys->patches()[link.to].object;
   }
   // ... and B on every patch without a lobe.
   for (PatchId i = 0; i < t.num_patches(); ++i) {
-    if (!sys->scene.materials[sys->patches[i].material].has_lobe()) {
+    if (!sys->scene().materials[sys->patches()[i].material].has_lobe()) {
       ASSERT_NEAR(r.u(i, 0), expect, 5e-3 * expect) << "patch " << i;
     }
   }
   // The camera, inside the box, sees the same radiance in every pixel.
-  Gather g = build_gather(sys->scene.camera, sys->patches, sys->scene.materials, *sys->caster, t);
+  Gather g = build_gather(*sys->world, t.layout());
   Image img = apply_gather(g, r.u);
   for (float v : img.rgb) ASSERT_NEAR(v, expect, 5e-3 * expect);
 }
@@ -122,7 +121,8 @@ const char* kMirrorScene = R"({
 std::string mirror_scene(double rx0, double rx1, double mx0, double mx1, double mz0, double mz1) {
   std::string s = kMirrorScene;
   auto put = [&](const std::string& key, double v) {
-    for (size_t at; (at = s.find(key)) != std::string::npos;) s.replace(at, key.size(), std::to_string(v));
+    for (size_t at; (at = s.find(key)) != std::string::npos;)
+      s.replace(at, key.size(), std::to_string(v));
   };
   put("RX0", rx0);
   put("RX1", rx1);
@@ -135,16 +135,16 @@ std::string mirror_scene(double rx0, double rx1, double mx0, double mx1, double 
 
 // B of the receiver after two sweeps (lamp -> mirror -> receiver, nothing more).
 double receiver_first_bounce(const std::string& json, int samples) {
-  PipelineOptions po;
-  po.specular.samples = samples;
-  auto sys = build_system(test::scene_from_json(json), po);
+  SystemOptions so;
+  so.specular.samples = samples;
+  auto sys = build_system(World::build(test::scene_from_json(json)), so);
   SolveOptions o;
   o.method = SolveMethod::kJacobi;
   o.fixed_sweeps = 2;
   SolveResult r = solve(sys->transport, sys->transport.emission(), o);
-  ObjectId rec = sys->scene.find_object("receiver");
-  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches.size()); ++i)
-    if (sys->patches[i].object == rec) return r.u(i, 0);
+  ObjectId rec = sys->scene().find_object("receiver");
+  for (PatchId i = 0; i < static_cast<PatchId>(sys->patches().size()); ++i)
+    if (sys->patches()[i].object == rec) return r.u(i, 0);
   return -1.0;
 }
 
@@ -189,7 +189,7 @@ TEST(Transport, AsymmetricMirrorSendsLightOneWayOnly) {
 }
 
 TEST(Transport, EnergyShrinksGeometricallyWithMirrors) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
+  auto sys = build_system(World::load(test::scene_path("cornell-mirror-cube")));
   SolveOptions o;
   o.method = SolveMethod::kJacobi;
   o.tolerance = 1e-8;
@@ -197,14 +197,15 @@ TEST(Transport, EnergyShrinksGeometricallyWithMirrors) {
   ASSERT_TRUE(r.ok());
   ASSERT_GT(r.sweep_residual.size(), 5u);
   for (size_t k = 1; k < r.sweep_residual.size(); ++k)
-    EXPECT_LE(r.sweep_residual[k], sys->transport.max_albedo() * r.sweep_residual[k - 1] * (1 + 1e-3));
+    EXPECT_LE(r.sweep_residual[k],
+              sys->transport.max_albedo() * r.sweep_residual[k - 1] * (1 + 1e-3));
 }
 
 TEST(Transport, MirrorCubeLinksOnlyWhereSpecularLightGoes) {
-  auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")));
+  auto sys = build_system(World::load(test::scene_path("cornell-mirror-cube")));
   const auto& t = sys->transport;
-  ObjectId cube = sys->scene.find_object("short_block");
-  for (const Link& l : t.links()) ASSERT_EQ(sys->patches[l.from].object, cube);
+  ObjectId cube = sys->scene().find_object("short_block");
+  for (const Link& l : t.links()) ASSERT_EQ(sys->patches()[l.from].object, cube);
   // The cube's patches link to at most the patches they see.
   EXPECT_LE(t.num_links(), static_cast<int>(sys->form_factors.f.nnz()));
   EXPECT_GT(t.num_links(), 1000);
@@ -217,10 +218,10 @@ namespace polyrad {
 namespace {
 
 TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
-  PipelineOptions stored_options, fly_options;
+  SystemOptions fly_options;
   fly_options.specular_on_the_fly = true;
-  auto stored = build_system(load_scene(test::scene_path("cornell-mirror-cube")), stored_options);
-  auto fly = build_system(load_scene(test::scene_path("cornell-mirror-cube")), fly_options);
+  auto stored = build_system(World::load(test::scene_path("cornell-mirror-cube")));
+  auto fly = build_system(World::load(test::scene_path("cornell-mirror-cube")), fly_options);
   ASSERT_TRUE(fly->transport.on_the_fly());
   EXPECT_EQ(fly->transport.num_links(), stored->transport.num_links());
   EXPECT_EQ(fly->transport.nnz_specular(), 0);

@@ -1,11 +1,11 @@
 // The polyrad command line: thin subcommands over the library.
 #include <omp.h>
+#include <unistd.h>
 
 #include <csignal>
 #include <cstdio>
-#include <unistd.h>
 
-#include "cli_common.h"
+#include "flags.h"
 #include "polyrad/util/files.h"
 #include "polyrad/util/progress.h"
 
@@ -33,7 +33,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int threads = 0;
   bool quiet = false;
-  app.add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
+  app.add_option("--threads", threads, "OpenMP threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
   app.add_flag("--quiet", quiet, "No progress display");
   app.parse_complete_callback([&] {
     if (threads > 0) omp_set_num_threads(threads);

@@ -26,8 +26,8 @@ void subdivide_quad(const std::vector<Vec3>& q, double max_edge,
     for (int a = 0; a < nu; ++a) {
       double s0 = double(a) / nu, s1 = double(a + 1) / nu;
       double t0 = double(b) / nv, t1 = double(b + 1) / nv;
-      out.push_back({bilinear(q, s0, t0), bilinear(q, s1, t0), bilinear(q, s1, t1),
-                     bilinear(q, s0, t1)});
+      out.push_back(
+          {bilinear(q, s0, t0), bilinear(q, s1, t0), bilinear(q, s1, t1), bilinear(q, s0, t1)});
     }
 }
 
@@ -35,7 +35,9 @@ void subdivide_triangle(const Vec3& v0, const Vec3& v1, const Vec3& v2, double m
                         std::vector<std::vector<Vec3>>& out) {
   double longest = std::max({(v1 - v0).norm(), (v2 - v1).norm(), (v0 - v2).norm()});
   int n = cells(longest, max_edge);
-  auto p = [&](int a, int b) { return v0 + (double(a) / n) * (v1 - v0) + (double(b) / n) * (v2 - v0); };
+  auto p = [&](int a, int b) {
+    return v0 + (double(a) / n) * (v1 - v0) + (double(b) / n) * (v2 - v0);
+  };
   for (int b = 0; b < n; ++b)
     for (int a = 0; a + b < n; ++a) {
       out.push_back({p(a, b), p(a + 1, b), p(a, b + 1)});
@@ -129,13 +131,17 @@ std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, dou
 
 double count_patches(const Scene& scene) {
   // Counted in double: the count of an absurd patch size must not overflow before it is refused.
-  auto cells_d = [](double length, double max_edge) { return std::max(1.0, std::ceil(length / max_edge - 1e-9)); };
+  auto cells_d = [](double length, double max_edge) {
+    return std::max(1.0, std::ceil(length / max_edge - 1e-9));
+  };
   double total = 0.0;
   for (const auto& o : scene.objects)
     for (const auto& face : merged_faces(o.faces)) {
       if (face.size() == 4) {
-        total += cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()), o.patch_size) *
-                 cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
+        total +=
+            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()),
+                    o.patch_size) *
+            cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
         continue;
       }
       for (size_t k = 1; k + 1 < face.size(); ++k) {

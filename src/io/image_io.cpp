@@ -1,4 +1,6 @@
 // Image files (io/image_io.h): OpenEXR and PNG through OpenImageIO, PFM written directly.
+#include "polyrad/io/image_io.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -11,7 +13,6 @@
 
 #include "polyrad/util/error.h"
 #include "polyrad/util/files.h"
-#include "polyrad/io/image_io.h"
 
 namespace polyrad {
 
@@ -19,7 +20,8 @@ namespace {
 
 std::string extension_of(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -35,7 +37,8 @@ void write_pfm(const Image& image, const std::string& path) {
   bool ok = std::fprintf(f, "PF\n%d %d\n-1.0\n", image.width, image.height) > 0;
   for (int y = image.height - 1; y >= 0 && ok; --y)
     ok = std::fwrite(&image.rgb[3 * static_cast<size_t>(y) * image.width], sizeof(float),
-                     3 * static_cast<size_t>(image.width), f) == 3 * static_cast<size_t>(image.width);
+                     3 * static_cast<size_t>(image.width),
+                     f) == 3 * static_cast<size_t>(image.width);
   ok = (std::fclose(f) == 0) && ok;
   if (!ok) throw std::runtime_error("cannot write " + path);
 }
@@ -62,13 +65,16 @@ Image read_pfm(const std::string& path) {
 void write_oiio(const Image& image, const std::string& path, bool png, double exposure) {
   auto out = OIIO::ImageOutput::create(path);
   if (!out) throw std::runtime_error("cannot create " + path + ": " + OIIO::geterror());
-  OIIO::ImageSpec spec(image.width, image.height, 3, png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::HALF);
-  if (!out->open(path, spec)) throw std::runtime_error("cannot create " + path + ": " + out->geterror());
+  OIIO::ImageSpec spec(image.width, image.height, 3,
+                       png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::HALF);
+  if (!out->open(path, spec))
+    throw std::runtime_error("cannot create " + path + ": " + out->geterror());
   bool ok;
   if (png) {
     std::vector<unsigned char> bytes(image.rgb.size());
     for (size_t k = 0; k < image.rgb.size(); ++k)
-      bytes[k] = static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[k] * exposure)));
+      bytes[k] =
+          static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[k] * exposure)));
     ok = out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
   } else {
     ok = out->write_image(OIIO::TypeDesc::FLOAT, image.rgb.data());
@@ -94,11 +100,13 @@ bool is_image_path(const std::string& path) {
 void write_image(const Image& image, const std::string& path, const ImageWriteOptions& options) {
   std::string ext = extension_of(path);
   if (!is_image_path(path))
-    throw InputError(SourceLocation{path}, "unknown image format '" + ext +
-                                               "' (use .exr, .pfm or .png)");
+    throw InputError(SourceLocation{path},
+                     "unknown image format '" + ext + "' (use .exr, .pfm or .png)");
   AtomicFile file(path);
-  if (ext == ".pfm") write_pfm(image, file.temp_path());
-  else write_oiio(image, file.temp_path(), ext == ".png", options.exposure);
+  if (ext == ".pfm")
+    write_pfm(image, file.temp_path());
+  else
+    write_oiio(image, file.temp_path(), ext == ".png", options.exposure);
   file.commit();
 }
 
@@ -107,7 +115,8 @@ Image read_image(const std::string& path) {
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw InputError(SourceLocation{path}, "cannot read the image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
-  if (spec.nchannels < 3) throw InputError(SourceLocation{path}, "the image has fewer than 3 channels");
+  if (spec.nchannels < 3)
+    throw InputError(SourceLocation{path}, "the image has fewer than 3 channels");
   std::vector<float> all(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
     throw InputError(SourceLocation{path}, "cannot read the image: " + in->geterror());

@@ -12,9 +12,12 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/io/serialize.h"
+#include "polyrad/scene/scene.h"
 #include "polyrad/util/files.h"
-#include "polyrad/util/json.h"
 #include "polyrad/util/hash.h"
+#include "polyrad/util/json.h"
 
 namespace polyrad {
 
@@ -34,53 +37,19 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
   JsonWriter w;
   w.begin_object();
   w.value("format", "polyrad series operator");
-  w.value("scene_file", q.scene_file);
-  w.value("scene_hash", std::to_string(q.scene_hash));
-  w.value("patch_size", q.patch_size);
-  w.value("output", series_output_name(q.output));
-  w.value("basis", series_basis_name(q.basis));
-  w.value("precision", value_precision_name(q.precision));
+  write_operator_metadata(w, q);
   w.value("layout", q.dense() ? "dense" : "sparse");
   w.value("rows", static_cast<long long>(q.rows()));
   w.value("nnz", static_cast<long long>(q.nnz()));
-  w.value("width", q.width).value("height", q.height);
-  w.begin_object("gather")
-      .value("diffuse", q.gather.diffuse == DiffuseMode::kSmooth ? "smooth" : "flat")
-      .value("pixel_grid", q.gather.pixel_grid)
-      .value("lobe_samples", q.gather.lobe_samples)
-      .value("light_samples", q.gather.light_samples)
-      .value("specular", q.gather.specular)
-      .value("seed", static_cast<long long>(q.gather.seed))
-      .end_object();
   w.value("num_patches", q.layout.num_patches);
   w.value("links", static_cast<long long>(q.layout.links.size()));
-  w.begin_array("columns");
-  for (const auto& c : q.columns) {
-    w.begin_object().value("object", c.object).value("patch", c.patch);
-    w.begin_array("emission").element(c.emission[0]).element(c.emission[1]).element(c.emission[2]).end_array();
-    w.end_object();
-  }
-  w.end_array();
-  const SeriesReport& r = q.report;
-  w.begin_object("report")
-      .value("order", r.order)
-      .value("max_albedo", r.max_albedo)
-      .value("apriori_bound", r.apriori_bound)
-      .value("aposteriori_estimate", r.aposteriori_estimate)
-      .value("spectral_radius", r.spectral_radius)
-      .value("dropped_energy", r.dropped_energy)
-      .value("dropped_relative", r.dropped_relative)
-      .value("seconds", r.seconds)
-      .value("reorder", series_reorder_name(r.reorder))
-      .value("bandwidth_before", r.bandwidth_before)
-      .value("bandwidth_after", r.bandwidth_after)
-      .value("reorder_seconds", r.reorder_seconds);
-  w.begin_array("term_norms");
-  for (double x : r.term_norms) w.element(x);
-  w.end_array().end_object();
   w.begin_array("sections");
   for (const auto& s : sections)
-    w.begin_object().value("name", s.name).value("offset", s.offset).value("size", s.size).end_object();
+    w.begin_object()
+        .value("name", s.name)
+        .value("offset", s.offset)
+        .value("size", s.size)
+        .end_object();
   w.end_array();
   w.end_object();
   return w.str();
@@ -102,12 +71,15 @@ std::string encode(const SeriesOperator& q) {
   }
   std::vector<Blob> blobs;
   if (!q.dense()) {
-    blobs.push_back({"row_start", q.start(), sizeof(std::int64_t) * static_cast<std::size_t>(q.rows() + 1)});
-    blobs.push_back({"column", q.column(), sizeof(std::uint32_t) * static_cast<std::size_t>(q.nnz())});
+    blobs.push_back(
+        {"row_start", q.start(), sizeof(std::int64_t) * static_cast<std::size_t>(q.rows() + 1)});
+    blobs.push_back(
+        {"column", q.column(), sizeof(std::uint32_t) * static_cast<std::size_t>(q.nnz())});
   }
   blobs.push_back({"values", q.values(), 3 * value_size * static_cast<std::size_t>(q.nnz())});
   blobs.push_back({"links", link_pairs.data(), sizeof(std::uint32_t) * link_pairs.size()});
-  blobs.push_back({"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()});
+  blobs.push_back(
+      {"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()});
   // The header holds the section table, whose offsets depend on the header's length: iterate
   // until the length settles (digits only grow, so this ends).
   std::vector<Section> sections(blobs.size());
@@ -148,7 +120,8 @@ std::string encode(const SeriesOperator& q) {
 const JsonValue& member(const JsonValue& v, const char* key, JsonValue::Kind kind,
                         const std::string& name) {
   const JsonValue* m = v.is(JsonValue::Kind::kObject) ? v.find(key) : nullptr;
-  if (!m || !m->is(kind)) refuse(name, std::string("header field '") + key + "' is missing or malformed");
+  if (!m || !m->is(kind))
+    refuse(name, std::string("header field '") + key + "' is missing or malformed");
   return *m;
 }
 
@@ -158,20 +131,9 @@ double number(const JsonValue& v, const char* key, const std::string& name) {
 
 std::int64_t count(const JsonValue& v, const char* key, const std::string& name, double limit) {
   double x = number(v, key, name);
-  if (!(x >= 0.0 && x <= limit && x == std::floor(x))) refuse(name, std::string("header field '") + key + "' is out of range");
+  if (!(x >= 0.0 && x <= limit && x == std::floor(x)))
+    refuse(name, std::string("header field '") + key + "' is out of range");
   return static_cast<std::int64_t>(x);
-}
-
-// How the precompute numbered T's unknowns: absent from files written before the reordering
-// existed (they were made without one), so optional; the file's data do not depend on it.
-void read_reorder_report(const JsonValue& r, const std::string& name, SeriesReport& report) {
-  if (!r.find("reorder")) return;
-  const std::string& reorder = member(r, "reorder", JsonValue::Kind::kString, name).string;
-  if (reorder != "none" && reorder != "rcm") refuse(name, "unknown reorder '" + reorder + "'");
-  report.reorder = reorder == "rcm" ? SeriesReorder::kRcm : SeriesReorder::kNone;
-  report.bandwidth_before = count(r, "bandwidth_before", name, 9e15);
-  report.bandwidth_after = count(r, "bandwidth_after", name, 9e15);
-  report.reorder_seconds = number(r, "reorder_seconds", name);
 }
 
 }  // namespace
@@ -192,106 +154,55 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   if (version != kPrtVersion)
     refuse(name, "format version " + std::to_string(version) + ", this polyrad reads version " +
                      std::to_string(kPrtVersion));
-  if (16 + static_cast<std::size_t>(header_length) + 8 > size) refuse(name, "the file is truncated");
+  if (16 + static_cast<std::size_t>(header_length) + 8 > size)
+    refuse(name, "the file is truncated");
   std::uint64_t stored;
   std::memcpy(&stored, bytes + size - 8, 8);
-  if (stored != checksum64(bytes, size - 8)) refuse(name, "checksum mismatch (corrupted or truncated)");
+  if (stored != checksum64(bytes, size - 8))
+    refuse(name, "checksum mismatch (corrupted or truncated)");
 
   JsonValue h;
   try {
-    h = parse_json(std::string_view(reinterpret_cast<const char*>(bytes + 16), header_length), name);
+    h = parse_json(std::string_view(reinterpret_cast<const char*>(bytes + 16), header_length),
+                   name);
   } catch (const InputError& e) {
     refuse(name, std::string("the header is not valid JSON: ") + e.message());
   }
   SeriesOperator q;
-  const std::string& output = member(h, "output", JsonValue::Kind::kString, name).string;
-  const std::string& basis = member(h, "basis", JsonValue::Kind::kString, name).string;
-  const std::string& precision = member(h, "precision", JsonValue::Kind::kString, name).string;
-  if (output != "view" && output != "solution") refuse(name, "unknown output '" + output + "'");
-  if (basis != "patch" && basis != "object") refuse(name, "unknown basis '" + basis + "'");
-  if (precision != "float" && precision != "half") refuse(name, "unknown precision '" + precision + "'");
   const std::string& layout = member(h, "layout", JsonValue::Kind::kString, name).string;
   if (layout != "dense" && layout != "sparse") refuse(name, "unknown layout '" + layout + "'");
   const bool dense = layout == "dense";
-  q.output = output == "view" ? SeriesOutput::kView : SeriesOutput::kSolution;
-  q.basis = basis == "patch" ? SeriesBasis::kPatch : SeriesBasis::kObject;
-  q.precision = precision == "float" ? ValuePrecision::kFloat : ValuePrecision::kHalf;
-  q.scene_file = member(h, "scene_file", JsonValue::Kind::kString, name).string;
-  const std::string& hash = member(h, "scene_hash", JsonValue::Kind::kString, name).string;
-  try {
-    size_t used = 0;
-    q.scene_hash = std::stoull(hash, &used);
-    if (used != hash.size()) throw std::invalid_argument(hash);
-  } catch (const std::exception&) {
-    refuse(name, "the scene hash is malformed");
-  }
-  // Absent from files written before the override was recorded: they had none, or cannot be
-  // meshed again (their relight in solution mode says so).
-  if (h.find("patch_size")) {
-    q.patch_size = number(h, "patch_size", name);
-    if (!(q.patch_size >= 0.0 && q.patch_size < 1e300)) refuse(name, "the patch size is out of range");
-  }
   const double limit = static_cast<double>(size);
   const std::int64_t rows = count(h, "rows", name, limit);
   const std::int64_t nnz = count(h, "nnz", name, limit);
-  q.width = static_cast<int>(count(h, "width", name, 1 << 16));
-  q.height = static_cast<int>(count(h, "height", name, 1 << 16));
-  if (q.output == SeriesOutput::kView && rows != static_cast<std::int64_t>(q.width) * q.height)
-    refuse(name, "rows do not match the image size");
-  const JsonValue& g = member(h, "gather", JsonValue::Kind::kObject, name);
-  q.gather.diffuse = member(g, "diffuse", JsonValue::Kind::kString, name).string == "flat" ? DiffuseMode::kFlat : DiffuseMode::kSmooth;
-  q.gather.pixel_grid = static_cast<int>(count(g, "pixel_grid", name, 16));
-  q.gather.lobe_samples = static_cast<int>(count(g, "lobe_samples", name, 4096));
-  // Files written before the gather sampled the lights have no count: they sampled none.
-  q.gather.light_samples = g.find("light_samples") ? static_cast<int>(count(g, "light_samples", name, 4096)) : 0;
-  q.gather.specular = member(g, "specular", JsonValue::Kind::kBool, name).boolean;
-  q.gather.seed = static_cast<std::uint64_t>(count(g, "seed", name, 9e15));
   // Patch indices are ints, and link_start has num_patches + 1 entries: however large the file,
   // the count must leave room for that one more in an int.
-  q.layout.num_patches = static_cast<int>(count(h, "num_patches", name, std::min(limit, 2147483646.0)));
+  q.layout.num_patches =
+      static_cast<int>(count(h, "num_patches", name, std::min(limit, 2147483646.0)));
   const std::int64_t links = count(h, "links", name, limit);
-
-  for (const auto& c : member(h, "columns", JsonValue::Kind::kArray, name).array) {
-    SeriesColumn col;
-    col.object = member(c, "object", JsonValue::Kind::kString, name).string;
-    double patch = number(c, "patch", name);
-    if (!(patch >= -1 && patch < q.layout.num_patches && patch == std::floor(patch))) refuse(name, "a column's patch is out of range");
-    col.patch = static_cast<PatchId>(patch);
-    const auto& e = member(c, "emission", JsonValue::Kind::kArray, name).array;
-    if (e.size() != 3) refuse(name, "a column's emission is malformed");
-    for (int k = 0; k < 3; ++k) {
-      if (!e[k].is(JsonValue::Kind::kNumber)) refuse(name, "a column's emission is malformed");
-      col.emission[k] = e[k].number;
-    }
-    q.columns.push_back(col);
+  try {
+    read_operator_metadata(h, q.layout.num_patches, q);
+  } catch (const InputError& e) {
+    refuse(name, "the header: " + e.message());
   }
-  if (q.columns.empty() || q.columns.size() > (1ull << 31)) refuse(name, "the operator has no columns");
-  const JsonValue& r = member(h, "report", JsonValue::Kind::kObject, name);
-  q.report.order = static_cast<int>(count(r, "order", name, 1e9));
-  q.report.max_albedo = number(r, "max_albedo", name);
-  q.report.spectral_radius = number(r, "spectral_radius", name);
-  q.report.dropped_energy = number(r, "dropped_energy", name);
-  q.report.dropped_relative = number(r, "dropped_relative", name);
-  q.report.seconds = number(r, "seconds", name);
-  for (const char* key : {"apriori_bound", "aposteriori_estimate"}) {
-    const JsonValue* v = r.find(key);
-    double x = v && v->is(JsonValue::Kind::kNumber) ? v->number : INFINITY;  // null: unbounded
-    (std::string(key) == "apriori_bound" ? q.report.apriori_bound : q.report.aposteriori_estimate) = x;
-  }
-  for (const auto& x : member(r, "term_norms", JsonValue::Kind::kArray, name).array)
-    q.report.term_norms.push_back(x.is(JsonValue::Kind::kNumber) ? x.number : INFINITY);
-  read_reorder_report(r, name, q.report);
+  if (q.output == SeriesOutput::kView && rows != static_cast<std::int64_t>(q.width) * q.height)
+    refuse(name, "rows do not match the image size");
+  if (q.columns.empty() || q.columns.size() > (1ull << 31))
+    refuse(name, "the operator has no columns");
 
   // Sections: in bounds, aligned, of the sizes the counts imply.
   const std::size_t value_size = q.precision == ValuePrecision::kFloat ? 4 : 2;
   const std::size_t data_end = size - 8;
   auto section = [&](const char* key, std::size_t expect) -> const unsigned char* {
     for (const auto& s : member(h, "sections", JsonValue::Kind::kArray, name).array) {
-      if (!s.is(JsonValue::Kind::kObject) || member(s, "name", JsonValue::Kind::kString, name).string != key) continue;
+      if (!s.is(JsonValue::Kind::kObject) ||
+          member(s, "name", JsonValue::Kind::kString, name).string != key)
+        continue;
       std::size_t offset = static_cast<std::size_t>(count(s, "offset", name, limit));
       std::size_t length = static_cast<std::size_t>(count(s, "size", name, limit));
       if (length != expect) refuse(name, std::string("section '") + key + "' has the wrong size");
-      if (offset % kAlign != 0 || offset < 16 + header_length || offset > data_end || length > data_end - offset)
+      if (offset % kAlign != 0 || offset < 16 + header_length || offset > data_end ||
+          length > data_end - offset)
         refuse(name, std::string("section '") + key + "' lies outside the file");
       return bytes + offset;
     }
@@ -302,12 +213,16 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   const std::int64_t* start = nullptr;
   const std::uint32_t* column = nullptr;
   if (!dense) {
-    start = reinterpret_cast<const std::int64_t*>(section("row_start", 8 * static_cast<std::size_t>(rows + 1)));
-    column = reinterpret_cast<const std::uint32_t*>(section("column", 4 * static_cast<std::size_t>(nnz)));
+    start = reinterpret_cast<const std::int64_t*>(
+        section("row_start", 8 * static_cast<std::size_t>(rows + 1)));
+    column = reinterpret_cast<const std::uint32_t*>(
+        section("column", 4 * static_cast<std::size_t>(nnz)));
   }
   const void* values = section("values", 3 * value_size * static_cast<std::size_t>(nnz));
-  const auto* link_pairs = reinterpret_cast<const std::uint32_t*>(section("links", 8 * static_cast<std::size_t>(links)));
-  const auto* flux = reinterpret_cast<const double*>(section("flux_weight", 8 * static_cast<std::size_t>(q.layout.num_patches + links)));
+  const auto* link_pairs =
+      reinterpret_cast<const std::uint32_t*>(section("links", 8 * static_cast<std::size_t>(links)));
+  const auto* flux = reinterpret_cast<const double*>(
+      section("flux_weight", 8 * static_cast<std::size_t>(q.layout.num_patches + links)));
   // Indices must be safe to follow: rows non-decreasing up to nnz, columns below cols.
   if (!dense) {
     if (start[0] != 0 || start[rows] != nnz) refuse(name, "the row table is inconsistent");
@@ -332,18 +247,52 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
     q.layout.links[l] = link;
     ++q.layout.link_start[link.from + 1];
   }
-  for (int p = 0; p < q.layout.num_patches; ++p) q.layout.link_start[p + 1] += q.layout.link_start[p];
+  for (int p = 0; p < q.layout.num_patches; ++p)
+    q.layout.link_start[p + 1] += q.layout.link_start[p];
   q.layout.flux_weight.assign(flux, flux + q.layout.num_patches + links);
-  if (q.output == SeriesOutput::kSolution && rows != q.layout.size()) refuse(name, "rows do not match the unknowns");
+  if (q.output == SeriesOutput::kSolution && rows != q.layout.size())
+    refuse(name, "rows do not match the unknowns");
   q.report.nnz = nnz;
   q.set_view(rows, start, column, values, nullptr);
   q.report.bytes = q.bytes();
   return q;
 }
 
-SeriesOperator read_prt(const std::string& path) {
+namespace {
+
+void check_against_scene(const SeriesOperator& q, const std::string& prt_name,
+                         const std::string& scene_path) {
+  const std::string path = scene_path.empty() ? q.scene_file : scene_path;
+  Scene scene;
+  try {
+    scene = load_scene(path);
+  } catch (const InputError& e) {
+    throw InputError(SourceLocation{prt_name}, "cannot check the operator against its scene '" +
+                                                   path + "' (" + e.message() +
+                                                   "); pass --scene PATH if it moved");
+  }
+  if (scene.hash != q.scene_hash)
+    throw InputError(
+        SourceLocation{prt_name},
+        "stale operator: the scene '" + path +
+            "' has changed since it was precomputed (or it was built from another scene)");
+  if (q.output != SeriesOutput::kSolution) return;
+  // Solution rows are read through a gather of the scene meshed again: it must mesh into the
+  // same patches.
+  const double patches = count_patches(apply_overrides(std::move(scene), q.overrides));
+  if (patches != q.layout.num_patches)
+    throw InputError(SourceLocation{prt_name},
+                     "the scene meshes into " + std::to_string(static_cast<long long>(patches)) +
+                         " patches but the operator has " + std::to_string(q.layout.num_patches));
+}
+
+}  // namespace
+
+SeriesOperator read_prt(const std::string& path, const PrtReadOptions& options) {
   int fd = ::open(path.c_str(), O_RDONLY);
-  if (fd < 0) throw InputError(SourceLocation{path}, std::string("cannot open the operator file: ") + std::strerror(errno));
+  if (fd < 0)
+    throw InputError(SourceLocation{path},
+                     std::string("cannot open the operator file: ") + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0 || st.st_size <= 0) {
     ::close(fd);
@@ -352,10 +301,17 @@ SeriesOperator read_prt(const std::string& path) {
   const auto size = static_cast<std::size_t>(st.st_size);
   void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
   ::close(fd);
-  if (map == MAP_FAILED) throw InputError(SourceLocation{path}, std::string("cannot map the operator file: ") + std::strerror(errno));
-  std::shared_ptr<const void> keep(map, [size](const void* p) { ::munmap(const_cast<void*>(p), size); });
+  if (map == MAP_FAILED)
+    throw InputError(SourceLocation{path},
+                     std::string("cannot map the operator file: ") + std::strerror(errno));
+  std::shared_ptr<const void> keep(map,
+                                   [size](const void* p) { ::munmap(const_cast<void*>(p), size); });
   SeriesOperator q = read_prt_bytes(map, size, path);
   q.set_view(q.rows(), q.start(), q.column(), q.values(), keep);
+  if (options.check_scene) {
+    check_against_scene(q, path, options.scene);
+    if (!options.scene.empty()) q.scene_file = options.scene;
+  }
   return q;
 }
 

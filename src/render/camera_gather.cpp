@@ -2,13 +2,13 @@
 #include "polyrad/render/camera_gather.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include "polyrad/scene/brdf.h"
-#include "polyrad/world/light_sampling.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
+#include "polyrad/util/timer.h"
+#include "polyrad/world/light_sampling.h"
 
 namespace polyrad {
 
@@ -73,22 +73,20 @@ Rgbf scaled(const Rgb& c, double s) {
   return {static_cast<float>(c[0] * s), static_cast<float>(c[1] * s), static_cast<float>(c[2] * s)};
 }
 
-// The gather draws lights by area over the patches of the scene's named lights: relighting may
-// give any of them any emission, so the choice must not depend on the scene's values.
-std::vector<double> light_areas(const PatchSet& patches) {
-  std::vector<double> weight(patches.size(), 0.0);
-  for (size_t p = 0; p < patches.size(); ++p)
-    if (patches[p].emitter) weight[p] = patches[p].area;
-  return weight;
-}
-
 class PixelGatherer {
  public:
-  PixelGatherer(const Camera& camera, const PatchSet& patches, const std::vector<Material>& materials,
-                const RayCaster& caster, const UnknownLayout& t, const GatherOptions& o,
-                const CornerAverages& corners, const LightSampler& lights)
-      : camera_(camera), patches_(patches), materials_(materials), caster_(caster), t_(t), o_(o),
-        corners_(corners), lights_(lights) {}
+  PixelGatherer(const Camera& camera, const PatchSet& patches,
+                const std::vector<Material>& materials, const RayCaster& caster,
+                const UnknownLayout& t, const GatherOptions& o, const CornerAverages& corners,
+                const LightSampler& lights)
+      : camera_(camera),
+        patches_(patches),
+        materials_(materials),
+        caster_(caster),
+        t_(t),
+        o_(o),
+        corners_(corners),
+        lights_(lights) {}
 
   // The terms of pixel (x, y); returns the number of rays cast.
   long long gather(int x, int y, std::vector<Term>& terms) const {
@@ -103,12 +101,12 @@ class PixelGatherer {
         Hit hit = caster_.intersect(ray.origin, ray.direction);
         if (!hit.valid() || !hit.front) continue;
         add_diffuse(hit.patch, hit.u, hit.v, Rgbf{float(share), float(share), float(share)}, terms);
-        if (!o_.specular) continue;
         const Material& m = materials_[patches_[hit.patch].material];
         if (!m.has_lobe()) continue;
         const Frame frame = Frame::from_normal(patches_[hit.patch].normal);
-        const Shading sh{hit.patch, m, frame, ray.origin + hit.t * ray.direction,
-                         frame.to_local(-ray.direction), share};
+        const Shading sh{
+            hit.patch, m, frame, ray.origin + hit.t * ray.direction, frame.to_local(-ray.direction),
+            share};
         Rng rng(o_.seed, static_cast<std::uint64_t>(y) * camera_.width + x, a * n + b);
         rays += add_lobe_samples(sh, rng, terms);
         rays += add_light_samples(sh, rng, terms);
@@ -131,12 +129,15 @@ class PixelGatherer {
   }
   // The lobe samples form a side x side grid (one sample for a delta lobe).
   int lobe_side(const Material& m) const {
-    return m.is_delta() ? 1 : std::max(1, static_cast<int>(std::lround(std::sqrt(o_.lobe_samples))));
+    return m.is_delta() ? 1
+                        : std::max(1, static_cast<int>(std::lround(std::sqrt(o_.lobe_samples))));
   }
 
   void add_diffuse(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
-    if (o_.diffuse == DiffuseMode::kSmooth) corners_.add(p, u, v, w, terms);
-    else terms.push_back({p, w});
+    if (o_.diffuse == DiffuseMode::kSmooth)
+      corners_.add(p, u, v, w, terms);
+    else
+      terms.push_back({p, w});
   }
   // Radiance arriving at i from point (u, v) of patch j, times w: w (B_j + S_{j->i}).
   void add_arriving(PatchId j, double u, double v, PatchId i, const Rgbf& w,
@@ -217,7 +218,8 @@ class PixelGatherer {
 };
 
 void merge_terms(std::vector<Term>& terms) {
-  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.column < b.column; });
+  std::sort(terms.begin(), terms.end(),
+            [](const Term& a, const Term& b) { return a.column < b.column; });
   size_t w = 0;
   for (size_t r = 0; r < terms.size(); ++r) {
     if (w > 0 && terms[w - 1].column == terms[r].column) {
@@ -231,12 +233,18 @@ void merge_terms(std::vector<Term>& terms) {
 
 }  // namespace
 
-Gather build_gather(const Camera& camera, const PatchSet& patches,
-                    const std::vector<Material>& materials, const RayCaster& caster,
-                    const UnknownLayout& t, const GatherOptions& options) {
-  auto t0 = std::chrono::steady_clock::now();
+Gather build_gather(const World& world, const UnknownLayout& t, const GatherOptions& options) {
+  return build_gather(world, world.camera(), t, options);
+}
+
+Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& t,
+                    const GatherOptions& options) {
+  const Stopwatch watch;
+  const PatchSet& patches = world.patches();
   CornerAverages corners(patches, t.flux_weight);
-  LightSampler lights(patches, light_areas(patches));
+  const LightSampler& lights = world.lights();
+  const RayCaster& caster = world.caster();
+  const std::vector<Material>& materials = world.materials();
   PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners, lights);
   const int w = camera.width, h = camera.height;
   std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);
@@ -269,20 +277,16 @@ Gather build_gather(const Camera& camera, const PatchSet& patches,
     g.g.push_row();
   }
   g.rays = rays;
-  g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  g.seconds = watch.seconds();
   return g;
 }
 
 Image apply_gather(const Gather& gather, const Field& u) {
   Image img(gather.width, gather.height);
-  const auto& g = gather.g;
-#pragma omp parallel for schedule(static)
-  for (std::int64_t p = 0; p < g.rows; ++p) {
-    double a[3] = {0.0, 0.0, 0.0};
-    for (auto k = g.start[p]; k < g.start[p + 1]; ++k)
-      for (int c = 0; c < 3; ++c) a[c] += g.value[k][c] * u(g.column[k], c);
-    for (int c = 0; c < 3; ++c) img.rgb[3 * p + c] = static_cast<float>(a[c]);
-  }
+  std::vector<double> y(3 * static_cast<std::size_t>(gather.g.rows));
+  gather.g.multiply(u.data(), 3, y.data());
+  std::transform(y.begin(), y.end(), img.rgb.begin(),
+                 [](double v) { return static_cast<float>(v); });
   return img;
 }
 

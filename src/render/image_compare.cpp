@@ -46,7 +46,10 @@ Rgb diverging(double t) {
 
 }  // namespace
 
-RegionMap object_regions(const Scene& scene, const PatchSet& patches, const RayCaster& caster) {
+RegionMap object_regions(const World& world) {
+  const Scene& scene = world.scene();
+  const PatchSet& patches = world.patches();
+  const RayCaster& caster = world.caster();
   const Camera& cam = scene.camera;
   RegionMap map;
   map.width = cam.width;
@@ -63,7 +66,8 @@ RegionMap object_regions(const Scene& scene, const PatchSet& patches, const RayC
     for (int x = 0; x < cam.width; ++x) {
       Ray r = cam.ray(x + 0.5, y + 0.5);
       Hit h = caster.intersect(r.origin, r.direction);
-      if (h.valid() && h.front) centre[static_cast<size_t>(y) * cam.width + x] = patches[h.patch].object;
+      if (h.valid() && h.front)
+        centre[static_cast<size_t>(y) * cam.width + x] = patches[h.patch].object;
     }
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
@@ -101,6 +105,7 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
   size_t nregions = regions ? regions->names.size() : 0;
   std::vector<Rgb> sum_a(nregions, Rgb::Zero()), sum_b(nregions, Rgb::Zero());
   std::vector<long long> count(nregions, 0);
+  std::vector<double> region_diff(nregions, 0.0), region_base(nregions, 0.0);
   double rel2 = 0.0, rel1 = 0.0, norm2 = 0.0, l1_diff = 0.0, l1_base = 0.0;
   std::vector<PixelError> pixels;
   pixels.reserve(n);
@@ -108,15 +113,21 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
     for (int x = 0; x < a.width; ++x) {
       Rgb va = a.at(x, y), vb = b.at(x, y), d = va - vb;
       for (int k = 0; k < 3; ++k) {
-        if (eps2[k] > 0.0 || vb[k] != 0.0) rel2 += d[k] * d[k] / (vb[k] * vb[k] + eps2[k]);
-        else if (d[k] != 0.0) rel2 = std::numeric_limits<double>::infinity();
+        if (eps2[k] > 0.0 || vb[k] != 0.0)
+          rel2 += d[k] * d[k] / (vb[k] * vb[k] + eps2[k]);
+        else if (d[k] != 0.0)
+          rel2 = std::numeric_limits<double>::infinity();
         double den = std::abs(vb[k]) + c.epsilon[k];
-        if (den > 0.0) rel1 += std::abs(d[k]) / den;
-        else if (d[k] != 0.0) rel1 = std::numeric_limits<double>::infinity();
+        if (den > 0.0)
+          rel1 += std::abs(d[k]) / den;
+        else if (d[k] != 0.0)
+          rel1 = std::numeric_limits<double>::infinity();
         l1_diff += std::abs(d[k]);
         l1_base += std::abs(vb[k]);
-        if (c.mean_b[k] != 0.0) norm2 += d[k] * d[k] / (c.mean_b[k] * c.mean_b[k]);
-        else if (d[k] != 0.0) norm2 = std::numeric_limits<double>::infinity();
+        if (c.mean_b[k] != 0.0)
+          norm2 += d[k] * d[k] / (c.mean_b[k] * c.mean_b[k]);
+        else if (d[k] != 0.0)
+          norm2 = std::numeric_limits<double>::infinity();
       }
       double lb = luminance(vb), la = luminance(va);
       double den = lb + lum_eps;
@@ -130,6 +141,8 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
           sum_a[label] += va;
           sum_b[label] += vb;
           ++count[label];
+          region_diff[label] += d.abs().sum();
+          region_base[label] += vb.abs().sum();
         }
       }
     }
@@ -148,13 +161,15 @@ ImageComparison compare_images(const Image& a, const Image& b, const CompareOpti
     f.mean_b = sum_b[r] / count[r];
     for (int k = 0; k < 3; ++k) f.relative_difference[k] = relative(f.mean_a[k], f.mean_b[k]);
     f.luminance_difference = relative(luminance(f.mean_a), luminance(f.mean_b));
+    f.relative_l1 = region_base[r] > 0.0 ? region_diff[r] / region_base[r] : std::nan("");
     double m = std::abs(f.luminance_difference);
     if (std::isnan(m) || m > c.worst_region_difference)
       c.worst_region_difference = std::isnan(m) ? std::numeric_limits<double>::infinity() : m;
     c.regions.push_back(f);
   }
 
-  size_t k = std::min<size_t>(pixels.size(), static_cast<size_t>(std::max(0, options.worst_pixels)));
+  size_t k =
+      std::min<size_t>(pixels.size(), static_cast<size_t>(std::max(0, options.worst_pixels)));
   // Ties broken by position so that the list does not depend on the sort's implementation.
   auto worse = [](const PixelError& p, const PixelError& q) {
     double ep = std::abs(p.error), eq = std::abs(q.error);

@@ -2,12 +2,12 @@
 #include "polyrad/render/path_tracer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <memory>
 
 #include "polyrad/util/error.h"
 #include "polyrad/util/progress.h"
+#include "polyrad/util/timer.h"
 
 namespace polyrad {
 
@@ -26,12 +26,11 @@ std::vector<double> emitted_power(const PatchSet& patches, const std::vector<Mat
 
 }  // namespace
 
-PathTracer::PathTracer(const PatchSet& patches, const std::vector<Material>& materials,
-                       const RayCaster& caster)
-    : patches_(patches),
-      materials_(materials),
-      caster_(caster),
-      lights_(patches, emitted_power(patches, materials)) {}
+PathTracer::PathTracer(const World& world)
+    : patches_(world.patches()),
+      materials_(world.materials()),
+      caster_(world.caster()),
+      lights_(world.patches(), emitted_power(world.patches(), world.materials())) {}
 
 Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
                          const PathTraceOptions& o, PathStats* stats) const {
@@ -133,7 +132,7 @@ PathTraceResult PathTracer::render(const Camera& camera, const PathTraceOptions&
   if (o.spp < 1) throw InputError("path tracer: spp must be at least 1");
   if (o.max_depth < 1) throw InputError("path tracer: max_depth must be at least 1");
   if (o.tile < 1) throw InputError("path tracer: tile must be at least 1");
-  auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const int w = camera.width, h = camera.height;
   PathTraceResult result;
   result.image = Image(w, h);
@@ -177,7 +176,7 @@ PathTraceResult PathTracer::render(const Camera& camera, const PathTraceOptions&
   result.stats.paths = paths;
   result.stats.rays = rays;
   result.stats.truncated = truncated;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.seconds = watch.seconds();
   return result;
 }
 

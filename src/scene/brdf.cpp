@@ -6,16 +6,6 @@
 
 namespace polyrad {
 
-const char* material_type_name(MaterialType t) {
-  switch (t) {
-    case MaterialType::kDiffuse: return "diffuse";
-    case MaterialType::kMirror: return "mirror";
-    case MaterialType::kGlossy: return "glossy";
-    case MaterialType::kPhong: return "phong";
-  }
-  return "?";
-}
-
 Material Material::lambert(std::string name, Rgb reflectance) {
   Material m;
   m.name = std::move(name);
@@ -141,18 +131,24 @@ double phong_pdf(const Vec3& wi, const Vec3& wo, double n) {
 double Material::lobe_eval(const Vec3& wi, const Vec3& wo) const {
   if (wi.z() <= 0.0 || wo.z() <= 0.0 || is_delta()) return 0.0;
   switch (type) {
-    case MaterialType::kGlossy: return ggx_eval(wi, wo, roughness);
-    case MaterialType::kPhong: return phong_eval(wi, wo, exponent);
-    default: return 0.0;
+    case MaterialType::kGlossy:
+      return ggx_eval(wi, wo, roughness);
+    case MaterialType::kPhong:
+      return phong_eval(wi, wo, exponent);
+    default:
+      return 0.0;
   }
 }
 
 double Material::lobe_pdf(const Vec3& wi, const Vec3& wo) const {
   if (wi.z() <= 0.0 || wo.z() <= 0.0 || is_delta()) return 0.0;
   switch (type) {
-    case MaterialType::kGlossy: return ggx_pdf(wi, wo, roughness);
-    case MaterialType::kPhong: return phong_pdf(wi, wo, exponent);
-    default: return 0.0;
+    case MaterialType::kGlossy:
+      return ggx_pdf(wi, wo, roughness);
+    case MaterialType::kPhong:
+      return phong_pdf(wi, wo, exponent);
+    default:
+      return 0.0;
   }
 }
 

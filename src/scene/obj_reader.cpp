@@ -1,9 +1,9 @@
 // Wavefront OBJ: only what patches need (positions and faces).
+#include "polyrad/scene/obj_reader.h"
+
 #include <charconv>
 #include <cmath>
 #include <sstream>
-
-#include "polyrad/scene/obj_reader.h"
 
 #include "polyrad/util/error.h"
 #include "polyrad/util/files.h"
@@ -54,7 +54,8 @@ std::vector<Face> read_obj_text(const std::string& text, const std::string& file
       f.source_line = line_number;
       std::string token;
       while (fields >> token)
-        f.vertices.push_back(positions[parse_corner(token, static_cast<long>(positions.size()), where)]);
+        f.vertices.push_back(
+            positions[parse_corner(token, static_cast<long>(positions.size()), where)]);
       if (f.vertices.size() < 3) throw InputError(where, "OBJ: a face needs at least 3 vertices");
       faces.push_back(std::move(f));
     } else if (keyword == "vn" || keyword == "vt" || keyword == "vp" || keyword == "g" ||

@@ -1,10 +1,10 @@
 // Stage 2 of scene loading: cross-references, meshes, face checks -> Scene.
+#include "polyrad/scene/scene.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <unordered_map>
-
-#include "polyrad/scene/scene.h"
 
 #include "polyrad/util/files.h"
 #include "polyrad/util/hash.h"
@@ -56,6 +56,14 @@ std::string resolve_path(const std::string& directory, const std::string& relati
 
 }  // namespace
 
+Scene apply_overrides(Scene scene, const SceneOverrides& overrides) {
+  if (overrides.patch_size > 0.0)
+    for (auto& o : scene.objects) o.patch_size = overrides.patch_size;
+  if (overrides.classic)
+    for (auto& m : scene.materials) m = Material::lambert(m.name, m.diffuse);
+  return scene;
+}
+
 ObjectId Scene::find_object(const std::string& name) const {
   for (size_t n = 0; n < objects.size(); ++n)
     if (objects[n].name == name) return static_cast<ObjectId>(n);
@@ -79,8 +87,8 @@ Scene resolve_scene(const SceneDesc& desc) {
     obj.name = o.name;
     auto it = material_ids.find(o.material);
     if (it == material_ids.end())
-      throw InputError(o.material_where, "object '" + o.name + "': unknown material '" +
-                                             o.material + "'");
+      throw InputError(o.material_where,
+                       "object '" + o.name + "': unknown material '" + o.material + "'");
     obj.material = it->second;
     obj.is_emitter = o.emission.has_value();
     obj.emission = o.emission.value_or(Rgb::Zero());
@@ -92,8 +100,8 @@ Scene resolve_scene(const SceneDesc& desc) {
     } else {
       std::string path = resolve_path(desc.directory, o.mesh);
       if (!std::filesystem::exists(path))
-        throw InputError(o.mesh_where, "object '" + o.name + "': mesh file '" + path +
-                                           "' does not exist");
+        throw InputError(o.mesh_where,
+                         "object '" + o.name + "': mesh file '" + path + "' does not exist");
       std::string text = read_text_file(path, "the mesh file");
       s.hash = fnv1a64(text.data(), text.size(), s.hash);
       obj.faces = read_obj_text(text, path);

@@ -1,8 +1,8 @@
 // Stage 1 of scene loading: JSON text -> SceneDesc records (docs/scene-format.md).
+#include "polyrad/scene/scene_parser.h"
+
 #include <cmath>
 #include <unordered_map>
-
-#include "polyrad/scene/scene_parser.h"
 
 #include "polyrad/util/files.h"
 #include "polyrad/util/hash.h"
@@ -22,8 +22,9 @@ Rgb read_colour(const JsonValue& v, const std::string& what, double max) {
   auto n = json_numbers(v, what, 3);
   for (double c : n)
     if (c < 0.0 || c > max)
-      throw InputError(v.where, what + " channels must lie in [0, " + std::to_string(max).substr(0, 3) +
-                                    "], got " + std::to_string(c));
+      throw InputError(v.where, what + " channels must lie in [0, " +
+                                    std::to_string(max).substr(0, 3) + "], got " +
+                                    std::to_string(c));
   return Rgb(n[0], n[1], n[2]);
 }
 
@@ -91,7 +92,8 @@ MaterialDesc read_material(const std::string& name, const JsonValue& value,
     m = Material::mirror(name, read_colour(r.get("reflectance"), what + " reflectance", max));
   } else if (type == "glossy" || type == "phong") {
     Rgb diffuse = Rgb::Zero();
-    if (const JsonValue* d = r.optional("diffuse")) diffuse = read_colour(*d, what + " diffuse", max);
+    if (const JsonValue* d = r.optional("diffuse"))
+      diffuse = read_colour(*d, what + " diffuse", max);
     Rgb specular = read_colour(r.get("specular"), what + " specular", max);
     if (type == "glossy") {
       const JsonValue& a = r.get("roughness");

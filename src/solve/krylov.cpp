@@ -1,7 +1,7 @@
-// GMRES on (I - T) u = e, matrix-free, one colour channel at a time (solver.h, kGmres).
-#include <unsupported/Eigen/IterativeSolvers>
+// GMRES on (I - T) u = e, matrix-free, one colour channel at a time (solve/krylov.h).
+#include "polyrad/solve/krylov.h"
 
-#include "polyrad/solve/solver.h"
+#include <unsupported/Eigen/IterativeSolvers>
 
 namespace polyrad {
 class ChannelSystem;
@@ -21,13 +21,18 @@ class ChannelSystem : public Eigen::EigenBase<ChannelSystem> {
   using Scalar = double;
   using RealScalar = double;
   using StorageIndex = int;
-  enum { ColsAtCompileTime = Eigen::Dynamic, MaxColsAtCompileTime = Eigen::Dynamic, IsRowMajor = false };
+  enum {
+    ColsAtCompileTime = Eigen::Dynamic,
+    MaxColsAtCompileTime = Eigen::Dynamic,
+    IsRowMajor = false
+  };
 
   ChannelSystem(const TransportOperator& t, int channel) : t_(t), channel_(channel) {}
   Eigen::Index rows() const { return t_.size(); }
   Eigen::Index cols() const { return t_.size(); }
   template <typename Rhs>
-  Eigen::Product<ChannelSystem, Rhs, Eigen::AliasFreeProduct> operator*(const Eigen::MatrixBase<Rhs>& x) const {
+  Eigen::Product<ChannelSystem, Rhs, Eigen::AliasFreeProduct> operator*(
+      const Eigen::MatrixBase<Rhs>& x) const {
     return Eigen::Product<ChannelSystem, Rhs, Eigen::AliasFreeProduct>(*this, x.derived());
   }
   // y = x - T_c x
@@ -65,8 +70,6 @@ struct generic_product_impl<polyrad::ChannelSystem, Rhs, SparseShape, DenseShape
 
 namespace polyrad {
 
-// Each channel is solved to the relative tolerance in Eigen's 2-norm; the caller checks the
-// flux-weighted residual, which is what polyrad reports.
 bool gmres_solve(const TransportOperator& t, const Field& e, double tolerance, int max_products,
                  Field& u, long long& products, std::string& message) {
   bool ok = true;

@@ -1,34 +1,14 @@
 // Jacobi and Gauss-Seidel on u = e + T u (solver.h).
 #include "polyrad/solve/solver.h"
 
-#include <chrono>
 #include <cmath>
 #include <memory>
 #include <sstream>
 
+#include "polyrad/solve/krylov.h"
+#include "polyrad/util/timer.h"
+
 namespace polyrad {
-
-const char* solve_method_name(SolveMethod m) {
-  switch (m) {
-    case SolveMethod::kJacobi: return "jacobi";
-    case SolveMethod::kGaussSeidel: return "gauss-seidel";
-    case SolveMethod::kGmres: return "gmres";
-    case SolveMethod::kChebyshev: return "chebyshev";
-  }
-  return "?";
-}
-
-bool gmres_solve(const TransportOperator& t, const Field& e, double tolerance, int max_products,
-                 Field& u, long long& products, std::string& message);
-
-const char* solve_status_name(SolveStatus s) {
-  switch (s) {
-    case SolveStatus::kConverged: return "converged";
-    case SolveStatus::kNotConverged: return "not converged";
-    case SolveStatus::kDiverged: return "diverged";
-  }
-  return "?";
-}
 
 double relative_residual(const TransportOperator& t, const Field& e, const Field& u) {
   Field tu;
@@ -88,7 +68,7 @@ bool spectral_radius_above_one(const TransportOperator& t, const Field& e, doubl
 }
 
 SolveResult solve_gmres(const TransportOperator& t, const Field& e, const SolveOptions& options,
-                        std::chrono::steady_clock::time_point t0) {
+                        const Stopwatch& watch) {
   SolveResult r;
   r.method = SolveMethod::kGmres;
   r.u = e;
@@ -120,7 +100,7 @@ SolveResult solve_gmres(const TransportOperator& t, const Field& e, const SolveO
   r.iterations = static_cast<int>(total);
   if (r.status != SolveStatus::kConverged && r.message.empty())
     r.message = "GMRES stopped at relative residual " + std::to_string(r.residual);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = watch.seconds();
   return r;
 }
 
@@ -129,7 +109,7 @@ SolveResult solve_gmres(const TransportOperator& t, const Field& e, const SolveO
 namespace {
 
 SolveResult solve_chebyshev(const TransportOperator& t, const Field& e, const SolveOptions& options,
-                            std::chrono::steady_clock::time_point t0) {
+                            const Stopwatch& watch) {
   SolveResult r;
   r.method = SolveMethod::kChebyshev;
   r.u = e;
@@ -143,8 +123,8 @@ SolveResult solve_chebyshev(const TransportOperator& t, const Field& e, const So
     r.message = "Chebyshev iteration needs every albedo below 1; " + t.divergence_hint();
     return r;
   }
-  const double rho = options.chebyshev_radius > 0.0 ? options.chebyshev_radius
-                                                    : estimate_spectral_radius(t, e);
+  const double rho =
+      options.chebyshev_radius > 0.0 ? options.chebyshev_radius : estimate_spectral_radius(t, e);
   ChebyshevIteration<Field> it(t, e, rho);
   const int limit = options.fixed_sweeps >= 0 ? options.fixed_sweeps : options.max_iterations;
   while (r.iterations < limit) {
@@ -160,11 +140,12 @@ SolveResult solve_chebyshev(const TransportOperator& t, const Field& e, const So
   }
   r.u = it.x();
   r.residual = relative_residual(t, e, r.u);
-  r.status = options.fixed_sweeps >= 0 || r.residual < options.tolerance ? SolveStatus::kConverged
-                                                                         : SolveStatus::kNotConverged;
+  r.status = options.fixed_sweeps >= 0 || r.residual < options.tolerance
+                 ? SolveStatus::kConverged
+                 : SolveStatus::kNotConverged;
   if (r.status == SolveStatus::kNotConverged)
     r.message = "Chebyshev iteration reached relative residual " + std::to_string(r.residual);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = watch.seconds();
   return r;
 }
 
@@ -202,9 +183,9 @@ double estimate_spectral_radius(const TransportOperator& t, const Field& e, int 
 }
 
 SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions& options) {
-  auto t0 = std::chrono::steady_clock::now();
-  if (options.method == SolveMethod::kGmres) return solve_gmres(t, e, options, t0);
-  if (options.method == SolveMethod::kChebyshev) return solve_chebyshev(t, e, options, t0);
+  const Stopwatch watch;
+  if (options.method == SolveMethod::kGmres) return solve_gmres(t, e, options, watch);
+  if (options.method == SolveMethod::kChebyshev) return solve_chebyshev(t, e, options, watch);
   SolveResult r;
   r.method = options.method;
   r.u = e;
@@ -251,13 +232,13 @@ SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions
       r.message = "stopped after the requested " + std::to_string(r.iterations) + " sweeps";
     } else if (!done) {
       std::ostringstream msg;
-      msg << "no convergence after " << r.iterations << " sweeps: relative residual "
-          << r.residual << " above the tolerance " << options.tolerance;
+      msg << "no convergence after " << r.iterations << " sweeps: relative residual " << r.residual
+          << " above the tolerance " << options.tolerance;
       r.status = SolveStatus::kNotConverged;
       r.message = msg.str();
     }
   }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.seconds = watch.seconds();
   return r;
 }
 
@@ -274,11 +255,11 @@ double relative_error(const TransportOperator& t, const Field& u, const Field& r
 }  // namespace
 
 ConvergenceMeasure measure_convergence(const TransportOperator& t, const Field& e,
-                                       const Field& reference, SolveMethod method,
-                                       double tolerance, int budget, long long max_products) {
+                                       const Field& reference, SolveMethod method, double tolerance,
+                                       int budget, long long max_products) {
   ConvergenceMeasure m;
-  auto t0 = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  const Stopwatch watch;
+  auto elapsed = [&] { return watch.seconds(); };
   if (method == SolveMethod::kGmres) {
     for (double inner = 1e-1; inner >= 1e-14 && m.products < 0; inner *= 0.1) {
       SolveOptions o;
@@ -302,7 +283,8 @@ ConvergenceMeasure measure_convergence(const TransportOperator& t, const Field& 
   const int overhead = method == SolveMethod::kChebyshev ? 12 : 0;  // the radius estimate's steps
   std::unique_ptr<ChebyshevIteration<Field>> cheb;
   if (method == SolveMethod::kChebyshev)
-    cheb = std::make_unique<ChebyshevIteration<Field>>(t, e, estimate_spectral_radius(t, e, overhead));
+    cheb =
+        std::make_unique<ChebyshevIteration<Field>>(t, e, estimate_spectral_radius(t, e, overhead));
   Field u = e, next;
   if (budget <= overhead) m.error_at_budget = relative_error(t, e, reference);
   for (long long n = 1; n + overhead <= max_products; ++n) {

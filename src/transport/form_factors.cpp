@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <initializer_list>
 #include <span>
@@ -15,6 +14,7 @@
 #include "polyrad/util/error.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
+#include "polyrad/util/timer.h"
 
 namespace polyrad {
 
@@ -72,20 +72,27 @@ inline Lanes edge_angles(const Lanes& y, const Lanes& x) {
   constexpr double kPio2Low = 6.123233995736765886130e-17;  // pi/2 - kPio2
   constexpr double kTan3Pio8 = 2.41421356237309504880;
   const Lanes ax = x.abs();
-  const auto steep = y > kTan3Pio8 * ax;         // atan(y/ax) = pi/2 - atan(ax/y)
+  const auto steep = y > kTan3Pio8 * ax;          // atan(y/ax) = pi/2 - atan(ax/y)
   const auto middle = !steep && (y > 0.66 * ax);  // = pi/4 + atan((y - ax)/(y + ax))
   const Lanes num = steep.select(-ax, middle.select(y - ax, y));
   const Lanes den = steep.select(y, middle.select(y + ax, ax.max(1e-300)));
-  const Lanes base = steep.select(Lanes::Constant(kPio2), middle.select(Lanes::Constant(kPio4), Lanes::Zero()));
-  const Lanes base_low = steep.select(Lanes::Constant(kPio2Low),
-                                      middle.select(Lanes::Constant(0.5 * kPio2Low), Lanes::Zero()));
+  const Lanes base =
+      steep.select(Lanes::Constant(kPio2), middle.select(Lanes::Constant(kPio4), Lanes::Zero()));
+  const Lanes base_low = steep.select(
+      Lanes::Constant(kPio2Low), middle.select(Lanes::Constant(0.5 * kPio2Low), Lanes::Zero()));
   const Lanes t = num / den;
   const Lanes z = t * t;
   const Lanes p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z -
-                    7.500855792314704667340e1) * z - 1.228866684490136173410e2) * z -
+                    7.500855792314704667340e1) *
+                       z -
+                   1.228866684490136173410e2) *
+                      z -
                   6.485021904942025371773e1;
   const Lanes q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z +
-                    4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z +
+                    4.328810604912902668951e2) *
+                       z +
+                   4.853903996359136964868e2) *
+                      z +
                   1.945506571482613964425e2;
   const Lanes a = base + ((t * (z * p / q) + t) + base_low);
   return (x < 0.0).select((2.0 * kPio2 - a) + 2.0 * kPio2Low, a);  // pi - atan(y/|x|)
@@ -157,7 +164,8 @@ void gauss_rule(const Polygon& poly, bool bilinear_quad, int n, std::vector<Quad
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) {
         double s = g.node[i], t = g.node[j];
-        out.push_back({a + s * (b - a) + s * t * (c - b), g.weight[i] * g.weight[j] * twice_area * s});
+        out.push_back(
+            {a + s * (b - a) + s * t * (c - b), g.weight[i] * g.weight[j] * twice_area * s});
       }
   }
 }
@@ -206,12 +214,14 @@ void outer_rule(const Polygon& poly, bool bilinear_quad, const Polygon& other, i
   }
   if (bilinear_quad) {
     auto at = [&](double s, double t) -> Vec3 {
-      return (1 - s) * (1 - t) * poly[0] + s * (1 - t) * poly[1] + s * t * poly[2] + (1 - s) * t * poly[3];
+      return (1 - s) * (1 - t) * poly[0] + s * (1 - t) * poly[1] + s * t * poly[2] +
+             (1 - s) * t * poly[3];
     };
     for (int a = 0; a < 2; ++a)
       for (int b = 0; b < 2; ++b) {
         double s0 = 0.5 * a, s1 = 0.5 * (a + 1), t0 = 0.5 * b, t1 = 0.5 * (b + 1);
-        outer_rule({at(s0, t0), at(s1, t0), at(s1, t1), at(s0, t1)}, true, other, n, depth - 1, out);
+        outer_rule({at(s0, t0), at(s1, t0), at(s1, t1), at(s0, t1)}, true, other, n, depth - 1,
+                   out);
       }
     return;
   }
@@ -240,13 +250,15 @@ class WholeQuadRules {
         if (patches[p].is_triangle()) continue;
         rule.clear();
         gauss_rule(Polygon(patches[p]), true, n, rule);
-        std::copy(rule.begin(), rule.end(), rules_[n].begin() + static_cast<std::ptrdiff_t>(p * n * n));
+        std::copy(rule.begin(), rule.end(),
+                  rules_[n].begin() + static_cast<std::ptrdiff_t>(p * n * n));
       }
     }
   }
   // The n x n rule of quad patch p (n one of the options' counts).
   std::span<const QuadraturePoint> get(PatchId p, int n) const {
-    return {rules_[n].data() + static_cast<std::size_t>(p) * n * n, static_cast<std::size_t>(n * n)};
+    return {rules_[n].data() + static_cast<std::size_t>(p) * n * n,
+            static_cast<std::size_t>(n * n)};
   }
 
  private:
@@ -371,7 +383,8 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
         for (int c = 0; c < count; ++c) {
           if (ks[c] <= 0.0) continue;
           ++rays_cast;
-          if (!caster->facing_segment_occluded(x_lifted, a, ys[c], b, r2s[c])) kernel_visible += ks[c];
+          if (!caster->facing_segment_occluded(x_lifted, a, ys[c], b, r2s[c]))
+            kernel_visible += ks[c];
         }
       }
       visible = kernel_sum > 0.0 ? kernel_visible / kernel_sum : 1.0;
@@ -380,7 +393,8 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
     total += points[q].w * contour_form_factor(x, a.normal, b_edges) * visible;
   }
   // A partly buried a: its mean over exposed points, times its exposed part of this region.
-  if (partly_buried) return exposed_weight > 0.0 ? total * weight * a_exposed / exposed_weight : 0.0;
+  if (partly_buried)
+    return exposed_weight > 0.0 ? total * weight * a_exposed / exposed_weight : 0.0;
   return total;
 }
 
@@ -393,7 +407,8 @@ std::vector<Vec3> clip_to_front(const std::vector<Vec3>& polygon, const Vec3& or
   return out;
 }
 
-double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon) {
+double point_to_polygon_form_factor(const Vec3& x, const Vec3& n,
+                                    const std::vector<Vec3>& polygon) {
   if (polygon.size() > 4 * ContourEdges::kGroups)
     throw std::invalid_argument("point_to_polygon_form_factor: more than 8 corners");
   return contour_form_factor(x, n, ContourEdges(polygon));
@@ -407,8 +422,8 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
   if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return 0.0;
   std::vector<QuadraturePoint> points;
   long long rays = 0;
-  double g = facing_pair_form_factor(a, b, larger_diameter, caster, options, key, rays, a_exposed,
-                                     points);
+  double g =
+      facing_pair_form_factor(a, b, larger_diameter, caster, options, key, rays, a_exposed, points);
   if (rays_cast) *rays_cast += rays;
   return g;
 }
@@ -463,13 +478,13 @@ std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& cast
 
 double FormFactors::row_sum(PatchId i) const {
   double s = 0.0;
-  for (auto k = f.start[i]; k < f.start[i + 1]; ++k) s += f.value[k];
+  for (auto [j, f_ij] : f.row(i)) s += f_ij;
   return s;
 }
 
 FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caster,
                                  const FormFactorOptions& options) {
-  auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const auto n = static_cast<PatchId>(patches.size());
   std::vector<double> exposed =
       exposed_areas(patches, caster, options.exposure_points, options.exposure_refined);
@@ -540,7 +555,7 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
   ff.stats.pairs_facing = facing;
   ff.stats.rays = rays;
   ff.stats.pairs_visible = static_cast<long long>(ff.f.nnz() / 2);
-  ff.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ff.stats.seconds = watch.seconds();
   return ff;
 }
 

@@ -75,8 +75,7 @@ double subtended_angle(const PatchSet& patches, const FormFactors& ff, PatchId i
 void add_reflector(const Scene& scene, const PatchSet& patches, const FormFactors& ff,
                    const SpecularTransfer& t, PatchId i, std::vector<PatchScale>& scale,
                    AngleHistogram& h) {
-  for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f) {
-    const PatchId k = ff.f.column[f];
+  for (auto [k, f_ik] : ff.f.row(i)) {
     scale[k] = {angle_bin(subtended_angle(patches, ff, i, k)),
                 std::log(scene.objects[patches[k].object].patch_size)};
   }

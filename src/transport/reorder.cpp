@@ -40,17 +40,17 @@ Graph symmetric_pattern(const Csr<float>& m) {
   const auto n = static_cast<std::int32_t>(m.rows);
   std::vector<std::int64_t> count(n + 1, 0);
   for (std::int32_t r = 0; r < n; ++r)
-    for (auto k = m.start[r]; k < m.start[r + 1]; ++k)
-      if (m.column[k] != r) {
+    for (auto [c, value] : m.row(r))
+      if (c != r) {
         ++count[r + 1];
-        ++count[m.column[k] + 1];
+        ++count[c + 1];
       }
   std::partial_sum(count.begin(), count.end(), count.begin());
   std::vector<std::int32_t> next(count[n]);
   std::vector<std::int64_t> fill(count.begin(), count.end() - 1);
   for (std::int32_t r = 0; r < n; ++r)
-    for (auto k = m.start[r]; k < m.start[r + 1]; ++k)
-      if (const std::int32_t c = m.column[k]; c != r) {
+    for (auto [c, value] : m.row(r))
+      if (c != r) {
         next[fill[r]++] = c;
         next[fill[c]++] = r;
       }
@@ -169,8 +169,7 @@ template <typename Number>
 std::int64_t band(const Csr<float>& m, Number number) {
   std::int64_t b = 0;
   for (std::int64_t r = 0; r < m.rows; ++r)
-    for (auto k = m.start[r]; k < m.start[r + 1]; ++k)
-      b = std::max<std::int64_t>(b, std::abs(number(r) - number(m.column[k])));
+    for (auto [c, value] : m.row(r)) b = std::max<std::int64_t>(b, std::abs(number(r) - number(c)));
   return b;
 }
 

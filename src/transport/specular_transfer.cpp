@@ -2,14 +2,14 @@
 #include "polyrad/transport/specular_transfer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <map>
+#include <numeric>
 
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
+#include "polyrad/util/timer.h"
 
 namespace polyrad {
 
@@ -35,7 +35,7 @@ int coprime_stride(int n) {
 struct SampledPair {
   PatchId from = 0;
   double reflected = 0.0;
-  double effective_samples = 0.0;  // (sum w)^2 / sum w^2
+  double effective_samples = 0.0;                    // (sum w)^2 / sum w^2
   std::vector<std::pair<PatchId, double>> fraction;  // by k
 };
 
@@ -50,8 +50,7 @@ void monte_carlo_pairs(const PatchSet& patches, const Material& m, const FormFac
   const int count = side * side;
   const int stride = coprime_stride(count);
   std::map<PatchId, double> hits;  // k -> sum of w * beta
-  for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f) {
-    const PatchId j = ff.f.column[f];
+  for (auto [j, f_ij] : ff.f.row(i)) {
     const Patch& pj = patches[j];
     Rng rng(o.seed, static_cast<std::uint64_t>(i), static_cast<std::uint64_t>(j));
     hits.clear();
@@ -233,8 +232,10 @@ double balance_reciprocity(const std::vector<SampledPair>& pairs,
     for (const auto& [k, fraction] : p.fraction) {
       int b = local(k);
       double c = p.effective_samples * fraction;
-      if (a == b) r.diag += c;
-      else counts[{std::min(a, b), std::max(a, b)}] += c;
+      if (a == b)
+        r.diag += c;
+      else
+        counts[{std::min(a, b), std::max(a, b)}] += c;
     }
   }
   for (const auto& [ab, c] : counts) {
@@ -259,10 +260,12 @@ double balance_reciprocity(const std::vector<SampledPair>& pairs,
     // Energy: a source's fractions never sum above 1 (all the flux it sends to i).
     double scale = sum > r.tau ? r.tau / sum : 1.0;
     if (r.diag > 0.0)
-      out.push_back({tau[a].first, tau[a].first, static_cast<float>(scale * r.diag / r.lambda / r.tau)});
+      out.push_back(
+          {tau[a].first, tau[a].first, static_cast<float>(scale * r.diag / r.lambda / r.tau)});
     for (const auto& [b, c] : r.partner) {
       double m = c / (r.lambda + rows[b].lambda);
-      if (m > 0.0) out.push_back({tau[a].first, tau[b].first, static_cast<float>(scale * m / r.tau)});
+      if (m > 0.0)
+        out.push_back({tau[a].first, tau[b].first, static_cast<float>(scale * m / r.tau)});
     }
   }
   return mismatch;
@@ -276,14 +279,12 @@ void centre_point_entries(const PatchSet& patches, const Material& m, const Form
   const Frame frame = Frame::from_normal(pi.normal);
   size_t first = out.size();
   double largest = 0.0;
-  for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f) {
-    PatchId j = ff.f.column[f];
+  for (auto [j, f_ij] : ff.f.row(i)) {
     Vec3 wi = frame.to_local((patches[j].centroid - pi.centroid).normalized());
-    for (auto g = ff.f.start[i]; g < ff.f.start[i + 1]; ++g) {
-      PatchId k = ff.f.column[g];
+    for (auto [k, f_ik] : ff.f.row(i)) {
       if (k == j) continue;
       Vec3 wo = frame.to_local((patches[k].centroid - pi.centroid).normalized());
-      double r = kPi * m.lobe_eval(wi, wo) * ff.f.value[g];
+      double r = kPi * m.lobe_eval(wi, wo) * f_ik;
       if (r > 0.0) out.push_back({j, k, static_cast<float>(r)});
       largest = std::max(largest, r);
     }
@@ -308,8 +309,7 @@ void specular_entries_of(const PatchSet& patches, const Material& material, cons
     monte_carlo_pairs(patches, material, ff, caster, options, i, pairs, local);
     if (options.balance) {
       std::vector<std::pair<PatchId, double>> tau;
-      for (auto f = ff.f.start[i]; f < ff.f.start[i + 1]; ++f)
-        tau.emplace_back(ff.f.column[f], kPi * ff.area[i] * ff.f.value[f]);
+      for (auto [j, f_ij] : ff.f.row(i)) tau.emplace_back(j, kPi * ff.area[i] * f_ij);
       local.mismatch = balance_reciprocity(pairs, tau, entries);
     } else {
       for (const auto& p : pairs)
@@ -336,7 +336,7 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
                                            const std::vector<Material>& materials,
                                            const FormFactors& ff, const RayCaster& caster,
                                            const SpecularOptions& options) {
-  auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const auto n = static_cast<PatchId>(patches.size());
   std::vector<std::vector<TransferEntry>> per_patch(n);
   std::vector<TransferCounters> counters(n);
@@ -376,7 +376,7 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
   st.stats.dropped_hits = total.dropped;
   st.stats.balance_mismatch = total.mismatch;
   st.stats.escaped_fraction = total.weight > 0.0 ? total.escaped / total.weight : 0.0;
-  st.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  st.stats.seconds = watch.seconds();
   return st;
 }
 

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <map>
 
-#include "polyrad/util/error.h"
 #include "polyrad/transport/specular_transfer.h"
+#include "polyrad/util/error.h"
 
 namespace polyrad {
 
@@ -18,11 +18,14 @@ struct Entry {
 
 // Sorts a row's entries by column and sums duplicates.
 void compact(std::vector<Entry>& row) {
-  std::sort(row.begin(), row.end(), [](const Entry& a, const Entry& b) { return a.column < b.column; });
+  std::sort(row.begin(), row.end(),
+            [](const Entry& a, const Entry& b) { return a.column < b.column; });
   size_t w = 0;
   for (size_t r = 0; r < row.size(); ++r) {
-    if (w > 0 && row[w - 1].column == row[r].column) row[w - 1].weight += row[r].weight;
-    else row[w++] = row[r];
+    if (w > 0 && row[w - 1].column == row[r].column)
+      row[w - 1].weight += row[r].weight;
+    else
+      row[w++] = row[r];
   }
   row.resize(w);
 }
@@ -134,8 +137,7 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     const Material& m = materials[patches[i].material];
     row.clear();
     if (m.diffuse.maxCoeff() > 0.0) {  // a pure mirror needs no diffuse row
-      for (auto k = ff.f.start[i]; k < ff.f.start[i + 1]; ++k)
-        row.push_back({ff.f.column[k], ff.f.value[k]});
+      for (auto [j, f_ij] : ff.f.row(i)) row.push_back({j, f_ij});
       row.insert(row.end(), incoming[i].begin(), incoming[i].end());
       compact(row);
     }
@@ -158,7 +160,8 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
       for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e)
         entries.push_back({specular->from[e], specular->to[e], specular->fraction[e]});
       reflector_rows(t.layout_, ff, i, entries.data(), entries.size(), rows);
-      for (size_t r = 0; r < rows.size(); ++r) link_rows[t.layout_.link_start[i] + r] = std::move(rows[r]);
+      for (size_t r = 0; r < rows.size(); ++r)
+        link_rows[t.layout_.link_start[i] + r] = std::move(rows[r]);
     }
   }
   for (LinkId l = 0; l < t.num_links(); ++l) {
@@ -176,8 +179,9 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
 
 std::string TransportOperator::divergence_hint() const {
   if (max_albedo_ <= 1.0) return {};
-  return "material '" + brightest_material_ + "' has diffuse + specular = " +
-         std::to_string(max_albedo_) + " > 1: it reflects more light than it receives";
+  return "material '" + brightest_material_ +
+         "' has diffuse + specular = " + std::to_string(max_albedo_) +
+         " > 1: it reflects more light than it receives";
 }
 
 Field TransportOperator::emission() const { return emission(patch_emission_); }
@@ -192,8 +196,8 @@ void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen
                                             bool in_place, const Field* e) const {
   const OnTheFlySpecular& src = *on_the_fly_;
   const auto n = static_cast<PatchId>(layout_.num_patches);
-  auto one = [&](PatchId i, std::vector<TransferEntry>& entries, std::vector<std::vector<Entry>>& rows,
-                 std::vector<double>& acc) {
+  auto one = [&](PatchId i, std::vector<TransferEntry>& entries,
+                 std::vector<std::vector<Entry>>& rows, std::vector<double>& acc) {
     if (layout_.link_start[i + 1] == layout_.link_start[i]) return;
     entries.clear();
     specular_entries_of(*src.patches, (*src.materials)[(*src.patches)[i].material], *src.ff,
@@ -233,33 +237,18 @@ void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen
 void TransportOperator::apply(const Field& in, Field& out) const {
   const Eigen::Index rows = size();
   out.resize(rows, 3);
-  const auto* start = weights_.start.data();
-  const auto* col = weights_.column.data();
-  const auto* val = weights_.value.data();
 #pragma omp parallel for schedule(dynamic, 256)
   for (Eigen::Index r = 0; r < rows; ++r) {
-    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
-    for (auto k = start[r]; k < start[r + 1]; ++k) {
-      const double w = val[k];
-      const double* x = in.data() + 3 * static_cast<Eigen::Index>(col[k]);
-      a0 += w * x[0];
-      a1 += w * x[1];
-      a2 += w * x[2];
-    }
+    double a[3] = {0.0, 0.0, 0.0};
+    weights_.accumulate_row(r, in.data(), 3, a);
     const auto& c = row_colour_[r];
-    out(r, 0) = c[0] * a0;
-    out(r, 1) = c[1] * a1;
-    out(r, 2) = c[2] * a2;
+    for (int ch = 0; ch < 3; ++ch) out(r, ch) = c[ch] * a[ch];
   }
   if (on_the_fly_) recompute_link_rows(in.data(), out.data(), 3, false, nullptr);
 }
 
-namespace {
-
-// out = diag(colour) W in over W's stored rows, for a block of fields: T's product on blocks
-// and its permuted copy's. Each row sums its entries in stored order.
-void apply_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& row_colour,
-                const FieldBlock& in, FieldBlock& out) {
+void apply_weighted_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& row_colour,
+                         const FieldBlock& in, FieldBlock& out) {
   const auto rows = static_cast<Eigen::Index>(weights.rows);
   const Eigen::Index width = in.cols();
   out.resize(rows, width);
@@ -269,11 +258,7 @@ void apply_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& ro
 #pragma omp for schedule(dynamic, 64)
     for (Eigen::Index r = 0; r < rows; ++r) {
       std::fill(acc.begin(), acc.end(), 0.0);
-      for (auto k = weights.start[r]; k < weights.start[r + 1]; ++k) {
-        const double w = weights.value[k];
-        const double* x = in.data() + width * static_cast<Eigen::Index>(weights.column[k]);
-        for (Eigen::Index c = 0; c < width; ++c) acc[c] += w * x[c];
-      }
+      weights.accumulate_row(r, in.data(), width, acc.data());
       const auto& colour = row_colour[r];
       double* y = out.data() + width * r;
       for (Eigen::Index c = 0; c < width; ++c) y[c] = colour[c % 3] * acc[c];
@@ -281,43 +266,9 @@ void apply_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& ro
   }
 }
 
-}  // namespace
-
 void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
-  apply_rows(weights_, row_colour_, in, out);
+  apply_weighted_rows(weights_, row_colour_, in, out);
   if (on_the_fly_) recompute_link_rows(in.data(), out.data(), in.cols(), false, nullptr);
-}
-
-PermutedTransport::PermutedTransport(const TransportOperator& t, Permutation p)
-    : permutation_(std::move(p)) {
-  if (t.on_the_fly())
-    throw InputError("reordering needs T's stored rows; with --specular-on-the-fly its link rows "
-                     "are recomputed at every product (use --reorder none)");
-  const Csr<float>& w = t.weights();
-  POLYRAD_CHECK(permutation_.size() == w.rows);
-  weights_.rows = 0;
-  weights_.cols = w.cols;
-  weights_.column.reserve(w.column.size());
-  weights_.value.reserve(w.value.size());
-  for (std::int32_t old : permutation_.order) {
-    for (auto k = w.start[old]; k < w.start[old + 1]; ++k) {
-      weights_.column.push_back(permutation_.position[w.column[k]]);
-      weights_.value.push_back(w.value[k]);
-    }
-    weights_.push_row();
-    row_colour_.push_back(t.row_colour()[old]);
-  }
-}
-
-void PermutedTransport::apply(const FieldBlock& in, FieldBlock& out) const {
-  apply_rows(weights_, row_colour_, in, out);
-}
-
-FieldBlock PermutedTransport::to_original(const FieldBlock& x) const {
-  FieldBlock u(x.rows(), x.cols());
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index n = 0; n < x.rows(); ++n) u.row(permutation_.order[n]) = x.row(n);
-  return u;
 }
 
 void TransportOperator::apply_channel(const double* in, double* out, int channel) const {
@@ -332,8 +283,7 @@ void TransportOperator::apply_channel(const double* in, double* out, int channel
 #pragma omp parallel for schedule(dynamic, 256)
   for (Eigen::Index r = 0; r < rows; ++r) {
     double a = 0.0;
-    for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k)
-      a += static_cast<double>(weights_.value[k]) * in[weights_.column[k]];
+    weights_.accumulate_row(r, in, 1, &a);
     out[r] = row_colour_[r][channel] * a;
   }
 }
@@ -342,18 +292,10 @@ void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
   // Stored rows (all of them, or only the diffuse ones when the link rows are recomputed).
   const Eigen::Index rows = on_the_fly_ ? layout_.num_patches : size();
   for (Eigen::Index r = 0; r < rows; ++r) {
-    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
-    for (auto k = weights_.start[r]; k < weights_.start[r + 1]; ++k) {
-      const double w = weights_.value[k];
-      const double* x = u.data() + 3 * static_cast<Eigen::Index>(weights_.column[k]);
-      a0 += w * x[0];
-      a1 += w * x[1];
-      a2 += w * x[2];
-    }
+    double a[3] = {0.0, 0.0, 0.0};
+    weights_.accumulate_row(r, u.data(), 3, a);
     const auto& c = row_colour_[r];
-    u(r, 0) = e(r, 0) + c[0] * a0;
-    u(r, 1) = e(r, 1) + c[1] * a1;
-    u(r, 2) = e(r, 2) + c[2] * a2;
+    for (int ch = 0; ch < 3; ++ch) u(r, ch) = e(r, ch) + c[ch] * a[ch];
   }
   if (on_the_fly_) recompute_link_rows(nullptr, u.data(), 3, true, &e);
 }
@@ -367,7 +309,8 @@ Eigen::Array3d TransportOperator::flux_norm_channels(const Field& f) const {
 
 double TransportOperator::flux_norm(const Field& f) const {
   double s = 0.0;
-  for (Eigen::Index r = 0; r < f.rows(); ++r) s += layout_.flux_weight[r] * f.row(r).cwiseAbs().sum();
+  for (Eigen::Index r = 0; r < f.rows(); ++r)
+    s += layout_.flux_weight[r] * f.row(r).cwiseAbs().sum();
   return s;
 }
 

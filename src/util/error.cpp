@@ -22,8 +22,8 @@ InputError::InputError(SourceLocation where, const std::string& message)
     : std::runtime_error(compose(where, message)), where_(std::move(where)), message_(message) {}
 
 void check_failed(const char* condition, const char* file, int line) {
-  throw std::logic_error(std::string("internal check failed: ") + condition + " at " + file +
-                         ":" + std::to_string(line));
+  throw std::logic_error(std::string("internal check failed: ") + condition + " at " + file + ":" +
+                         std::to_string(line));
 }
 
 }  // namespace polyrad

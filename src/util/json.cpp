@@ -26,8 +26,8 @@ class Parser {
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
-    throw InputError(here(), at_end() ? "JSON: unexpected end of file (" + message + ")"
-                                      : "JSON: " + message);
+    throw InputError(
+        here(), at_end() ? "JSON: unexpected end of file (" + message + ")" : "JSON: " + message);
   }
 
   SourceLocation here() const { return SourceLocation{file_, line_, column()}; }
@@ -62,15 +62,28 @@ class Parser {
     JsonValue v;
     v.where = here();
     switch (peek()) {
-      case '{': parse_object(v, depth); break;
-      case '[': parse_array(v, depth); break;
+      case '{':
+        parse_object(v, depth);
+        break;
+      case '[':
+        parse_array(v, depth);
+        break;
       case '"':
         v.kind = JsonValue::Kind::kString;
         v.string = parse_string();
         break;
-      case 't': expect_word("true"); v.kind = JsonValue::Kind::kBool; v.boolean = true; break;
-      case 'f': expect_word("false"); v.kind = JsonValue::Kind::kBool; break;
-      case 'n': expect_word("null"); break;
+      case 't':
+        expect_word("true");
+        v.kind = JsonValue::Kind::kBool;
+        v.boolean = true;
+        break;
+      case 'f':
+        expect_word("false");
+        v.kind = JsonValue::Kind::kBool;
+        break;
+      case 'n':
+        expect_word("null");
+        break;
       case '\0':
         if (at_end()) fail("unexpected end of file");
         [[fallthrough]];
@@ -89,7 +102,10 @@ class Parser {
     v.kind = JsonValue::Kind::kObject;
     advance();  // '{'
     skip_space();
-    if (peek() == '}') { advance(); return; }
+    if (peek() == '}') {
+      advance();
+      return;
+    }
     // A set, not a scan of the members read so far: that was quadratic, and a hostile file of
     // 100k keys (1 MB) took half a minute.
     std::unordered_set<std::string> keys;
@@ -98,16 +114,21 @@ class Parser {
       if (peek() != '"') fail("expected a quoted key");
       SourceLocation key_at = here();
       std::string key = parse_string();
-      if (!keys.insert(key).second)
-        throw InputError(key_at, "JSON: duplicate key '" + key + "'");
+      if (!keys.insert(key).second) throw InputError(key_at, "JSON: duplicate key '" + key + "'");
       skip_space();
       if (peek() != ':') fail("expected ':' after key");
       advance();
       skip_space();
       v.object.emplace_back(std::move(key), parse_value(depth + 1));
       skip_space();
-      if (peek() == ',') { advance(); continue; }
-      if (peek() == '}') { advance(); return; }
+      if (peek() == ',') {
+        advance();
+        continue;
+      }
+      if (peek() == '}') {
+        advance();
+        return;
+      }
       fail("expected ',' or '}' in object");
     }
   }
@@ -116,13 +137,22 @@ class Parser {
     v.kind = JsonValue::Kind::kArray;
     advance();  // '['
     skip_space();
-    if (peek() == ']') { advance(); return; }
+    if (peek() == ']') {
+      advance();
+      return;
+    }
     while (true) {
       skip_space();
       v.array.push_back(parse_value(depth + 1));
       skip_space();
-      if (peek() == ',') { advance(); continue; }
-      if (peek() == ']') { advance(); return; }
+      if (peek() == ',') {
+        advance();
+        continue;
+      }
+      if (peek() == ']') {
+        advance();
+        return;
+      }
       fail("expected ',' or ']' in array");
     }
   }
@@ -161,10 +191,14 @@ class Parser {
     for (int n = 0; n < 4; ++n) {
       char c = peek();
       unsigned digit;
-      if (c >= '0' && c <= '9') digit = c - '0';
-      else if (c >= 'a' && c <= 'f') digit = c - 'a' + 10;
-      else if (c >= 'A' && c <= 'F') digit = c - 'A' + 10;
-      else fail("invalid \\u escape");
+      if (c >= '0' && c <= '9')
+        digit = c - '0';
+      else if (c >= 'a' && c <= 'f')
+        digit = c - 'a' + 10;
+      else if (c >= 'A' && c <= 'F')
+        digit = c - 'A' + 10;
+      else
+        fail("invalid \\u escape");
       code = code * 16 + digit;
       advance();
     }
@@ -195,22 +229,45 @@ class Parser {
     while (true) {
       if (at_end()) fail("unterminated string");
       char c = peek();
-      if (c == '"') { advance(); return out; }
+      if (c == '"') {
+        advance();
+        return out;
+      }
       if (static_cast<unsigned char>(c) < 0x20) fail("control character in string");
-      if (c != '\\') { out += c; advance(); continue; }
+      if (c != '\\') {
+        out += c;
+        advance();
+        continue;
+      }
       advance();
       char e = peek();
       if (at_end()) fail("unterminated string");
       advance();
       switch (e) {
-        case '"': out += '"'; break;
-        case '\\': out += '\\'; break;
-        case '/': out += '/'; break;
-        case 'b': out += '\b'; break;
-        case 'f': out += '\f'; break;
-        case 'n': out += '\n'; break;
-        case 'r': out += '\r'; break;
-        case 't': out += '\t'; break;
+        case '"':
+          out += '"';
+          break;
+        case '\\':
+          out += '\\';
+          break;
+        case '/':
+          out += '/';
+          break;
+        case 'b':
+          out += '\b';
+          break;
+        case 'f':
+          out += '\f';
+          break;
+        case 'n':
+          out += '\n';
+          break;
+        case 'r':
+          out += '\r';
+          break;
+        case 't':
+          out += '\t';
+          break;
         case 'u': {
           unsigned code = parse_hex4();
           if (code >= 0xD800 && code < 0xDC00) {  // surrogate pair
@@ -227,7 +284,8 @@ class Parser {
           append_utf8(out, code);
           break;
         }
-        default: fail("invalid escape in string");
+        default:
+          fail("invalid escape in string");
       }
     }
   }
@@ -249,12 +307,18 @@ const JsonValue* JsonValue::find(std::string_view key) const {
 
 const char* JsonValue::kind_name(Kind k) {
   switch (k) {
-    case Kind::kNull: return "null";
-    case Kind::kBool: return "a boolean";
-    case Kind::kNumber: return "a number";
-    case Kind::kString: return "a string";
-    case Kind::kArray: return "an array";
-    case Kind::kObject: return "an object";
+    case Kind::kNull:
+      return "null";
+    case Kind::kBool:
+      return "a boolean";
+    case Kind::kNumber:
+      return "a number";
+    case Kind::kString:
+      return "a string";
+    case Kind::kArray:
+      return "an array";
+    case Kind::kObject:
+      return "an object";
   }
   return "?";
 }
@@ -266,8 +330,8 @@ JsonValue parse_json(std::string_view text, const std::string& file_name) {
 ObjectReader::ObjectReader(const JsonValue& value, std::string what)
     : value_(value), what_(std::move(what)) {
   if (!value.is(JsonValue::Kind::kObject))
-    throw InputError(value.where, what_ + " must be an object, not " +
-                                      JsonValue::kind_name(value.kind));
+    throw InputError(value.where,
+                     what_ + " must be an object, not " + JsonValue::kind_name(value.kind));
 }
 
 const JsonValue* ObjectReader::optional(std::string_view key) {
@@ -305,6 +369,26 @@ std::string ObjectReader::string(std::string_view key) {
   return expect(get(key), JsonValue::Kind::kString, key).string;
 }
 
+bool ObjectReader::boolean(std::string_view key) {
+  return expect(get(key), JsonValue::Kind::kBool, key).boolean;
+}
+
+long long ObjectReader::integer(std::string_view key, double lo, double hi) {
+  const JsonValue& v = expect(get(key), JsonValue::Kind::kNumber, key);
+  if (!(v.number >= lo && v.number <= hi && v.number == std::floor(v.number)))
+    throw InputError(v.where, "'" + std::string(key) + "' in " + what_ +
+                                  " must be a whole number in [" +
+                                  std::to_string(static_cast<long long>(lo)) + ", " +
+                                  std::to_string(static_cast<long long>(hi)) + "]");
+  return static_cast<long long>(v.number);
+}
+
+double ObjectReader::number_or_infinity(std::string_view key) {
+  const JsonValue& v = get(key);
+  if (v.is(JsonValue::Kind::kNull)) return INFINITY;
+  return expect(v, JsonValue::Kind::kNumber, key).number;
+}
+
 const JsonValue& ObjectReader::array(std::string_view key) {
   return expect(get(key), JsonValue::Kind::kArray, key);
 }
@@ -323,15 +407,15 @@ void ObjectReader::finish() const {
 
 double json_number(const JsonValue& v, std::string_view what) {
   if (!v.is(JsonValue::Kind::kNumber))
-    throw InputError(v.where, std::string(what) + " must be a number, not " +
-                                  JsonValue::kind_name(v.kind));
+    throw InputError(v.where,
+                     std::string(what) + " must be a number, not " + JsonValue::kind_name(v.kind));
   return v.number;
 }
 
 std::vector<double> json_numbers(const JsonValue& v, std::string_view what, size_t count) {
   if (!v.is(JsonValue::Kind::kArray) || v.array.size() != count)
-    throw InputError(v.where, std::string(what) + " must be an array of " +
-                                  std::to_string(count) + " numbers");
+    throw InputError(
+        v.where, std::string(what) + " must be an array of " + std::to_string(count) + " numbers");
   std::vector<double> out;
   for (const auto& e : v.array) out.push_back(json_number(e, what));
   return out;
@@ -343,11 +427,21 @@ std::string json_escape(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buf[8];

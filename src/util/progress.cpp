@@ -22,8 +22,11 @@ bool Progress::enabled() {
 }
 
 Progress::Progress(std::string stage, long long total, bool visible)
-    : stage_(std::move(stage)), total_(total), start_(std::chrono::steady_clock::now()),
-      last_draw_(start_), visible_(visible) {}
+    : stage_(std::move(stage)),
+      total_(total),
+      start_(std::chrono::steady_clock::now()),
+      last_draw_(start_),
+      visible_(visible) {}
 
 Progress::~Progress() { finish(); }
 

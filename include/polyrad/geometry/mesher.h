@@ -60,7 +60,7 @@ struct Patch {
 
 struct PatchSet {
   std::vector<Patch> patches;
-  int vertex_ids = 0;       // number of distinct welded corner ids
+  int vertex_ids = 0;           // number of distinct welded corner ids
   double scene_diameter = 0.0;  // diagonal of the bounding box of all patches
 
   size_t size() const { return patches.size(); }

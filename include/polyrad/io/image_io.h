@@ -20,7 +20,8 @@ struct ImageWriteOptions {
 };
 
 // Throws InputError for an unknown extension, std::runtime_error if the file cannot be written.
-void write_image(const Image& image, const std::string& path, const ImageWriteOptions& options = {});
+void write_image(const Image& image, const std::string& path,
+                 const ImageWriteOptions& options = {});
 Image read_image(const std::string& path);
 // True if write_image knows the extension of path.
 bool is_image_path(const std::string& path);

@@ -21,10 +21,10 @@
 namespace polyrad {
 
 struct Hit {
-  PatchId patch = -1;  // -1: the ray left the scene
-  double t = 0.0;      // distance along the ray in units of |direction|
-  double u = 0.0, v = 0.0;  // parameters on the patch (Patch::point)
-  bool front = false;       // the ray met the patch's front side
+  PatchId patch = -1;            // -1: the ray left the scene
+  double t = 0.0;                // distance along the ray in units of |direction|
+  double u = 0.0, v = 0.0;       // parameters on the patch (Patch::point)
+  bool front = false;            // the ray met the patch's front side
   Vec3 position = Vec3::Zero();  // where (origin + t direction)
   bool valid() const { return patch >= 0; }
 };

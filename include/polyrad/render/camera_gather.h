@@ -12,7 +12,7 @@
 // with L_{j->i} = B_j + S_{j->i}. Pixels average a fixed grid of sub-pixel rays. Nothing here
 // depends on the values of u, so the view-mode precompute folds G into its operator.
 //
-//   Gather g = build_gather(scene.camera, patches, materials, caster, t, {});
+//   Gather g = build_gather(*world, t.layout(), {});      // the scene's camera
 //   Image img = apply_gather(g, solution.u);
 //
 // Cost: pixels x sub-pixel rays x (1 + lobe samples + light samples) rays to build; memory 16
@@ -21,22 +21,28 @@
 
 #include <array>
 
-#include "polyrad/scene/camera.h"
 #include "polyrad/render/image.h"
-#include "polyrad/raycast/ray_caster.h"
-#include "polyrad/util/sparse.h"
+#include "polyrad/scene/camera.h"
 #include "polyrad/transport/transport.h"
+#include "polyrad/util/enum_names.h"
+#include "polyrad/util/sparse.h"
+#include "polyrad/world/world.h"
 
 namespace polyrad {
 
 enum class DiffuseMode { kFlat, kSmooth };
+template <>
+struct EnumNames<DiffuseMode> {
+  static constexpr const char* kind = "diffuse shading";
+  static constexpr std::array<std::pair<DiffuseMode, const char*>, 2> table{
+      {{DiffuseMode::kSmooth, "smooth"}, {DiffuseMode::kFlat, "flat"}}};
+};
 
 struct GatherOptions {
   DiffuseMode diffuse = DiffuseMode::kSmooth;
-  int pixel_grid = 2;       // sub-pixel rays per side (2: four rays a pixel)
-  int lobe_samples = 16;    // fixed lobe samples of a glossy hit
-  int light_samples = 4;    // points on the lights per glossy hit (0: the lobe samples alone)
-  bool specular = true;     // false: every material shows only its diffuse part
+  int pixel_grid = 2;     // sub-pixel rays per side (2: four rays a pixel)
+  int lobe_samples = 16;  // fixed lobe samples of a glossy hit
+  int light_samples = 4;  // points on the lights per glossy hit (0: the lobe samples alone)
   std::uint64_t seed = 11;
 };
 
@@ -45,20 +51,18 @@ using Rgbf = std::array<float, 3>;
 struct Gather {
   int width = 0, height = 0;
   GatherOptions options;  // what built it
-  Csr<Rgbf> g;  // row = pixel (row-major from the top-left), column = unknown
+  Csr<Rgbf> g;            // row = pixel (row-major from the top-left), column = unknown
   long long rays = 0;
   double seconds = 0.0;
   std::size_t bytes() const { return g.bytes(); }
 };
 
-Gather build_gather(const Camera& camera, const PatchSet& patches,
-                    const std::vector<Material>& materials, const RayCaster& caster,
-                    const UnknownLayout& layout, const GatherOptions& options = {});
-inline Gather build_gather(const Camera& camera, const PatchSet& patches,
-                           const std::vector<Material>& materials, const RayCaster& caster,
-                           const TransportOperator& t, const GatherOptions& options = {}) {
-  return build_gather(camera, patches, materials, caster, t.layout(), options);
-}
+// The gather of the world's camera, or of another camera (a solution operator relit from
+// elsewhere).
+Gather build_gather(const World& world, const UnknownLayout& layout,
+                    const GatherOptions& options = {});
+Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
+                    const GatherOptions& options = {});
 
 Image apply_gather(const Gather& gather, const Field& u);
 

@@ -13,7 +13,7 @@
 // rays of its 3 x 3 neighbourhood meet the same one (object_regions): edge pixels, which mix
 // objects, and pixels that see nothing or a back side belong to none.
 //
-//   RegionMap regions = object_regions(scene, patches, caster);
+//   RegionMap regions = object_regions(*world);
 //   ImageComparison c = compare_images(radiosity, reference, {}, &regions);
 //   write_image(error_picture(radiosity, reference, 0.25, 0.01), "err.png");
 //
@@ -24,9 +24,7 @@
 #include <vector>
 
 #include "polyrad/render/image.h"
-#include "polyrad/geometry/mesher.h"
-#include "polyrad/raycast/ray_caster.h"
-#include "polyrad/scene/scene.h"
+#include "polyrad/world/world.h"
 
 namespace polyrad {
 
@@ -39,7 +37,7 @@ struct RegionMap {
 
 // Regions = scene objects, by the primary ray of each pixel of scene.camera, less a one-pixel
 // margin along every edge between objects.
-RegionMap object_regions(const Scene& scene, const PatchSet& patches, const RayCaster& caster);
+RegionMap object_regions(const World& world);
 
 struct CompareOptions {
   double epsilon_fraction = 0.01;  // floor of relative errors, as a fraction of B's mean
@@ -52,6 +50,9 @@ struct RegionFigures {
   Rgb mean_a = Rgb::Zero(), mean_b = Rgb::Zero();
   Rgb relative_difference = Rgb::Zero();  // (mean_a - mean_b) / mean_b; NaN where mean_b is 0
   double luminance_difference = 0.0;      // the same for luminance
+  // sum |a - b| / sum |b| over the region's pixels and channels: light moved within the region
+  // (a smeared reflection) shows here even when the means agree.
+  double relative_l1 = 0.0;
 };
 
 struct PixelError {

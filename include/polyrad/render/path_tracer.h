@@ -23,7 +23,7 @@
 // Deterministic: the random stream of a sample is keyed by (seed, pixel, sample index), never by
 // thread, so an image is the same on any number of threads.
 //
-//   PathTracer pt(patches, scene.materials, caster);
+//   PathTracer pt(world);
 //   PathTraceOptions o;
 //   o.spp = 256;
 //   PathTraceResult r = pt.render(scene.camera, o);   // r.image: mean radiance per pixel
@@ -35,25 +35,26 @@
 #include <cstdint>
 #include <vector>
 
-#include "polyrad/scene/brdf.h"
-#include "polyrad/scene/camera.h"
-#include "polyrad/render/image.h"
-#include "polyrad/world/light_sampling.h"
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
+#include "polyrad/render/image.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/scene/camera.h"
 #include "polyrad/util/sampling.h"
+#include "polyrad/world/light_sampling.h"
+#include "polyrad/world/world.h"
 
 namespace polyrad {
 
 struct PathTraceOptions {
-  int spp = 64;               // samples per pixel, each a uniformly jittered point of the pixel
+  int spp = 64;  // samples per pixel, each a uniformly jittered point of the pixel
   std::uint64_t seed = 1;
-  int max_depth = 64;         // most segments a path may have (camera -> ... -> emitter)
-  int roulette_depth = 3;     // Russian roulette starts after this many segments
-  bool next_event = true;     // false: BSDF sampling only (for tests of the MIS weights)
+  int max_depth = 64;           // most segments a path may have (camera -> ... -> emitter)
+  int roulette_depth = 3;       // Russian roulette starts after this many segments
+  bool next_event = true;       // false: BSDF sampling only (for tests of the MIS weights)
   bool standard_error = false;  // also estimate each pixel's standard error
-  bool progress = true;       // show a Progress display (when enabled at all)
-  int tile = 16;              // tile side in pixels; work is scheduled tile by tile
+  bool progress = true;         // show a Progress display (when enabled at all)
+  int tile = 16;                // tile side in pixels; work is scheduled tile by tile
 };
 
 // Counters of one render or radiance() call; summed over threads.
@@ -78,9 +79,8 @@ struct PathTraceResult {
 
 class PathTracer {
  public:
-  // Keeps references: patches, materials and caster must outlive the tracer.
-  PathTracer(const PatchSet& patches, const std::vector<Material>& materials,
-             const RayCaster& caster);
+  // Keeps a reference: the world must outlive the tracer.
+  explicit PathTracer(const World& world);
 
   PathTraceResult render(const Camera& camera, const PathTraceOptions& options = {}) const;
 

@@ -20,11 +20,20 @@
 #include <string>
 
 #include "polyrad/types.h"
+#include "polyrad/util/enum_names.h"
 
 namespace polyrad {
 
 enum class MaterialType { kDiffuse, kMirror, kGlossy, kPhong };
-const char* material_type_name(MaterialType t);
+template <>
+struct EnumNames<MaterialType> {
+  static constexpr const char* kind = "material type";
+  static constexpr std::array<std::pair<MaterialType, const char*>, 4> table{
+      {{MaterialType::kDiffuse, "diffuse"},
+       {MaterialType::kMirror, "mirror"},
+       {MaterialType::kGlossy, "glossy"},
+       {MaterialType::kPhong, "phong"}}};
+};
 
 // One sample of the non-diffuse lobe for a fixed direction.
 struct LobeSample {

@@ -45,6 +45,15 @@ struct Scene {
   ObjectId find_object(const std::string& name) const;
 };
 
+// What a run may change of a scene as written, applied by apply_overrides (and so by World):
+// the longest patch edge of every object, and the classic system's materials.
+struct SceneOverrides {
+  double patch_size = 0.0;  // > 0: overrides every object's patch_size
+  bool classic = false;     // every material reduced to its diffuse part
+};
+// The scene with the overrides applied. Scene::hash stays the file's: it identifies the text.
+Scene apply_overrides(Scene scene, const SceneOverrides& overrides);
+
 Scene resolve_scene(const SceneDesc& desc);
 Scene load_scene(const std::string& path, const SceneOptions& options = {});
 

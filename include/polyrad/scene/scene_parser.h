@@ -31,10 +31,10 @@ struct ObjectDesc {
   std::string material;
   SourceLocation where;
   SourceLocation material_where;
-  std::optional<Rgb> emission;      // Lambertian radiance of the front side
+  std::optional<Rgb> emission;       // Lambertian radiance of the front side
   std::optional<double> patch_size;  // overrides the scene's
-  std::vector<Vec3> polygon;        // either a polygon ...
-  std::string mesh;                 // ... or an OBJ path relative to the scene file
+  std::vector<Vec3> polygon;         // either a polygon ...
+  std::string mesh;                  // ... or an OBJ path relative to the scene file
   SourceLocation mesh_where;
 };
 

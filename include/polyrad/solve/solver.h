@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "polyrad/transport/transport.h"
+#include "polyrad/util/enum_names.h"
 
 namespace polyrad {
 
@@ -26,8 +27,23 @@ namespace polyrad {
 // with T. Chebyshev is a fixed polynomial in T (the one the accelerated series stores).
 enum class SolveMethod { kJacobi, kGaussSeidel, kGmres, kChebyshev };
 enum class SolveStatus { kConverged, kNotConverged, kDiverged };
-const char* solve_method_name(SolveMethod m);
-const char* solve_status_name(SolveStatus s);
+template <>
+struct EnumNames<SolveMethod> {
+  static constexpr const char* kind = "solver";
+  static constexpr std::array<std::pair<SolveMethod, const char*>, 4> table{
+      {{SolveMethod::kJacobi, "jacobi"},
+       {SolveMethod::kGaussSeidel, "gauss-seidel"},
+       {SolveMethod::kGmres, "gmres"},
+       {SolveMethod::kChebyshev, "chebyshev"}}};
+};
+template <>
+struct EnumNames<SolveStatus> {
+  static constexpr const char* kind = "solve status";
+  static constexpr std::array<std::pair<SolveStatus, const char*>, 3> table{
+      {{SolveStatus::kConverged, "converged"},
+       {SolveStatus::kNotConverged, "not converged"},
+       {SolveStatus::kDiverged, "diverged"}}};
+};
 
 struct SolveOptions {
   SolveMethod method = SolveMethod::kGaussSeidel;
@@ -67,8 +83,8 @@ struct ConvergenceMeasure {
   double error_at_budget = 0.0;
 };
 ConvergenceMeasure measure_convergence(const TransportOperator& t, const Field& e,
-                                       const Field& reference, SolveMethod method,
-                                       double tolerance, int budget, long long max_products);
+                                       const Field& reference, SolveMethod method, double tolerance,
+                                       int budget, long long max_products);
 
 // The decay rate of a sequence of term norms ||T^n e||: the last ratio of successive norms,
 // extrapolated by Aitken's delta-squared when the ratios rise (as they do, toward the spectral
@@ -92,8 +108,7 @@ double estimate_spectral_radius(const TransportOperator& t, const Field& e, int 
 template <typename F, typename Op = TransportOperator>
 class ChebyshevIteration {
  public:
-  ChebyshevIteration(const Op& t, const F& e, double rho)
-      : t_(t), e_(e), rho2_(rho * rho), x_(e) {}
+  ChebyshevIteration(const Op& t, const F& e, double rho) : t_(t), e_(e), rho2_(rho * rho), x_(e) {}
   // Advances x by one product with T; returns the residual e + T x - x of the x it started from
   // (computed on the way).
   const F& step() {

@@ -5,10 +5,10 @@
 // Method, per unordered pair: the inner integral over the receiving patch is the exact
 // point-to-polygon form factor (Lambert's contour formula) after clipping both patches to each
 // other's front half-space; the outer integral is a Gauss-Legendre rule on the smaller patch,
-// refined geometrically toward the other patch for near pairs; visibility multiplies each outer point by the
-// kernel-weighted fraction of unblocked shadow rays to stratified points of the other patch.
-// This is exact for unoccluded pairs up to the outer rule's error, including pairs that share
-// an edge (where the point-to-point integrand is singular but the contour formula is not).
+// refined geometrically toward the other patch for near pairs; visibility multiplies each outer
+// point by the kernel-weighted fraction of unblocked shadow rays to stratified points of the other
+// patch. This is exact for unoccluded pairs up to the outer rule's error, including pairs that
+// share an edge (where the point-to-point integrand is singular but the contour formula is not).
 // One value G_ij = A_i F_ij is computed per pair, so reciprocity holds to rounding.
 //
 // Exposure: the part of a patch buried inside other geometry (a floor under a block, a ceiling

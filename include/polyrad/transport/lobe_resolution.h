@@ -1,6 +1,6 @@
 // Whether the patches resolve each glossy lobe: a cheap check, made once the specular transfer
-// is known, that says when a coarse mesh smears a sharp lobe (METHOD.md section 9, "coarse
-// patches against sharp lobes").
+// is known, that says when a coarse mesh smears a sharp lobe (papers/glossy-radiosity.md,
+// section 11, "coarse patches against sharp lobes").
 //
 // The transfer R_jik is constant over the patch k a lobe ray lands on, so it resolves the
 // outgoing direction only to within the angle k subtends from i. When that angle exceeds the
@@ -26,10 +26,10 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/scene/brdf.h"
-#include "polyrad/transport/form_factors.h"
 #include "polyrad/geometry/mesher.h"
+#include "polyrad/scene/brdf.h"
 #include "polyrad/scene/scene.h"
+#include "polyrad/transport/form_factors.h"
 #include "polyrad/transport/specular_transfer.h"
 
 namespace polyrad {

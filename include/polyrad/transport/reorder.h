@@ -1,5 +1,5 @@
 // A renumbering of T's unknowns for the locality of the series precompute (series.h,
-// SeriesOptions::reorder; METHOD.md section 6 asks for a reordering of rows and columns).
+// SeriesOptions::reorder; papers/glossy-radiosity.md, section 8).
 //
 // The precompute applies T to blocks of columns: each unknown's row of a block holds 3 x batch
 // doubles (1.5 KiB at the default batch of 64), and T's row r reads the block rows of its

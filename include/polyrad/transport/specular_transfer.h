@@ -28,10 +28,10 @@
 
 #include <vector>
 
-#include "polyrad/scene/brdf.h"
-#include "polyrad/transport/form_factors.h"
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/transport/form_factors.h"
 
 namespace polyrad {
 
@@ -39,9 +39,16 @@ enum class SpecularEstimator {
   kMonteCarlo,   // eq. 8: point pairs and lobe sampling (the default)
   kCentrePoint,  // the seed's rho evaluated at patch centres (compared, never the default)
 };
+template <>
+struct EnumNames<SpecularEstimator> {
+  static constexpr const char* kind = "specular estimator";
+  static constexpr std::array<std::pair<SpecularEstimator, const char*>, 2> table{
+      {{SpecularEstimator::kMonteCarlo, "monte-carlo"},
+       {SpecularEstimator::kCentrePoint, "centre-point"}}};
+};
 
 struct SpecularOptions {
-  int samples = 16;  // point pairs per link pair (j -> i)
+  int samples = 16;     // point pairs per link pair (j -> i)
   bool balance = true;  // reciprocity balancing (eq. 9); off only to compare
   SpecularEstimator estimator = SpecularEstimator::kMonteCarlo;
   std::uint64_t seed = 7;
@@ -61,9 +68,9 @@ class SpecularTransfer {
  public:
   // Entries of patch i (the reflector): [start[i], start[i+1]), sorted by (from, to).
   std::vector<std::int64_t> start;
-  std::vector<PatchId> from;     // j
-  std::vector<PatchId> to;       // k
-  std::vector<float> fraction;   // R_jik, colour excluded
+  std::vector<PatchId> from;    // j
+  std::vector<PatchId> to;      // k
+  std::vector<float> fraction;  // R_jik, colour excluded
   SpecularStats stats;
 
   std::int64_t entries() const { return static_cast<std::int64_t>(to.size()); }
@@ -95,6 +102,5 @@ struct TransferCounters {
 void specular_entries_of(const PatchSet& patches, const Material& material, const FormFactors& ff,
                          const RayCaster& caster, const SpecularOptions& options, PatchId i,
                          std::vector<TransferEntry>& out, TransferCounters* counters = nullptr);
-
 
 }  // namespace polyrad

@@ -1,13 +1,18 @@
-// The stages from a scene to its transport operator, run in order and timed:
-//   mesh -> ray caster -> form factors -> specular transfer (and the lobe resolution check)
-//   -> operator T.
-// What the CLI, the benchmarks and the tests share; each stage is also callable on its own.
+// The glossy radiosity system of a world: its form factors, its specular transfer (with the
+// lobe resolution check) and the transport operator T of u = e + T u, built in that order and
+// timed. What the solvers, the series precompute, the benchmarks and the tests share; each
+// stage is also callable on its own.
 //
-//   auto sys = build_system(load_scene(path), {});
+//   auto world = World::load("scenes/cornell-mirror-cube.json");
+//   auto sys = build_system(world);
 //   SolveResult r = solve(sys->transport, sys->transport.emission());
 //
+// A classic world (SceneOverrides::classic) has no lobes, so its T is the classic radiosity
+// system over the patches alone.
+//
 // Cost: that of the stages (form factors dominate for diffuse scenes, the specular transfer
-// for glossy ones). The system is not movable: the ray caster refers to the patches.
+// for glossy ones). The system is not movable: with on-the-fly link rows T refers to the form
+// factors.
 #pragma once
 
 #include <memory>
@@ -16,25 +21,20 @@
 
 #include "polyrad/transport/form_factors.h"
 #include "polyrad/transport/lobe_resolution.h"
-#include "polyrad/geometry/mesher.h"
-#include "polyrad/raycast/ray_caster.h"
-#include "polyrad/scene/scene.h"
 #include "polyrad/transport/specular_transfer.h"
 #include "polyrad/transport/transport.h"
+#include "polyrad/util/timer.h"
+#include "polyrad/world/world.h"
 
 namespace polyrad {
 
-struct PipelineOptions {
+struct SystemOptions {
   FormFactorOptions form_factors;
   SpecularOptions specular;
-  // false: the classic system, every material reduced to its diffuse part.
-  bool specular_transport = true;
   // Recompute the specular rows at every sweep instead of storing them (section 4.1): the
   // transfer is computed once to find the links, then its entries are released.
   bool specular_on_the_fly = false;
-  // Overrides every patch_size of the scene when > 0.
-  double patch_size = 0.0;
-  // Refuse (InputError) a scene whose estimated memory exceeds this many bytes; 0: 80 percent
+  // Refuse (InputError) a system whose estimated memory exceeds this many bytes; 0: 80 percent
   // of the machine's physical memory.
   double max_memory_bytes = 0.0;
 };
@@ -47,39 +47,54 @@ struct MemoryEstimate {
   double form_factors = 0.0, specular = 0.0, fields = 0.0;
   double total() const { return form_factors + specular + fields; }
 };
-MemoryEstimate estimate_memory(const Scene& scene, const PipelineOptions& options);
-double physical_memory_bytes();
+// scene: with the world's overrides applied (apply_overrides), as World::scene() is.
+MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options);
+// Throws InputError naming the parts when the estimate exceeds the budget (options'
+// max_memory_bytes, or 80 percent of the machine's memory).
+void require_memory(const Scene& scene, const SystemOptions& options);
 
-struct StageTime {
-  std::string name;
-  double seconds;
+// The figures of a built system, for reports: sizes, the stages' statistics, the lobe checks.
+struct SystemSummary {
+  long long patches = 0, links = 0, unknowns = 0;
+  FormFactorStats form_factors;
+  long long form_factor_nnz = 0;
+  std::size_t form_factor_bytes = 0;
+  SpecularStats specular;
+  long long specular_entries = 0;
+  std::size_t specular_bytes = 0;
+  bool on_the_fly = false;
+  long long nnz_diffuse = 0, nnz_specular = 0;
+  std::size_t operator_bytes = 0;
+  double max_albedo = 0.0;
+  std::vector<LobeResolution> lobes;
 };
 
 struct RadiositySystem {
-  Scene scene;
-  PatchSet patches;
-  std::unique_ptr<RayCaster> caster;
+  std::shared_ptr<const World> world;
   FormFactors form_factors;
   SpecularTransfer specular;
   TransportOperator transport;
   // Each glossy object's lobe width against its patches' angle (lobe_resolution.h); those with
   // `smeared` set are the warnings a caller should show.
   std::vector<LobeResolution> lobes;
-  std::vector<StageTime> times;
+  StageTimes times;  // the world's (mesh, ray caster), then each stage of the system
+
+  const Scene& scene() const { return world->scene(); }
+  const PatchSet& patches() const { return world->patches(); }
 
   RadiositySystem() = default;
   RadiositySystem(const RadiositySystem&) = delete;
   RadiositySystem& operator=(const RadiositySystem&) = delete;
-  double seconds(const std::string& stage) const;
+  double seconds(const std::string& stage) const { return stage_seconds(times, stage); }
+  SystemSummary summary() const;
 };
 
-std::unique_ptr<RadiositySystem> build_system(Scene scene, const PipelineOptions& options = {});
-
-// The --patch-size override as build_system applies it: when patch_size > 0, every object's.
-// Whatever meshes the scene again to match a system (path tracer, relight) calls this too.
-void override_patch_size(Scene& scene, double patch_size);
-
-// Peak resident memory of this process so far, in bytes.
-std::size_t peak_memory_bytes();
+// Checks the memory estimate first (require_memory).
+std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world,
+                                              const SystemOptions& options = {});
+// The same from a scene: the estimate is checked before the world is meshed, so that a tiny
+// patch size is refused at once rather than after meshing millions of patches.
+std::unique_ptr<RadiositySystem> build_system(Scene scene, const SceneOverrides& overrides,
+                                              const SystemOptions& options = {});
 
 }  // namespace polyrad

@@ -25,13 +25,12 @@
 #include <string>
 #include <vector>
 
-#include "polyrad/scene/brdf.h"
-#include "polyrad/transport/form_factors.h"
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
-#include "polyrad/transport/reorder.h"
-#include "polyrad/util/sparse.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/transport/form_factors.h"
 #include "polyrad/transport/specular_transfer.h"
+#include "polyrad/util/sparse.h"
 
 namespace polyrad {
 
@@ -130,33 +129,11 @@ class TransportOperator {
   std::string brightest_material_;
 };
 
-// T's stored rows with the unknowns renumbered (reorder.h), for the series precompute's block
-// products (SeriesOptions::reorder): row n is T's row p.order[n], its columns mapped through
-// p.position. Each row keeps its entries in T's order, so a product sums the same terms in the
-// same order as T's does and gives the same bits, permuted; the columns of a row are then not
-// ascending, so Csr::at does not apply to weights(). Memory: a second copy of T's weights.
-// An operator whose link rows are recomputed on the fly stores none to permute: the
-// constructor refuses it (InputError).
-//
-//   PermutedTransport pt(t, reverse_cuthill_mckee(t.weights()));
-//   pt.apply(x, y);                          // y = P T P^T x, x and y in the new numbering
-//   FieldBlock u = pt.to_original(y);        // u.row(p.order[n]) = y.row(n)
-class PermutedTransport {
- public:
-  PermutedTransport(const TransportOperator& t, Permutation p);
-  Eigen::Index size() const { return static_cast<Eigen::Index>(weights_.rows); }
-  const Permutation& permutation() const { return permutation_; }
-  const Csr<float>& weights() const { return weights_; }
-  // out = (P T P^T) in; in and out must not alias.
-  void apply(const FieldBlock& in, FieldBlock& out) const;
-  // A block in this numbering, renumbered as T's unknowns.
-  FieldBlock to_original(const FieldBlock& x) const;
-
- private:
-  Permutation permutation_;
-  Csr<float> weights_;
-  std::vector<Eigen::Array3f> row_colour_;
-};
+// out = diag(row_colour) W in over W's stored rows, for a block of fields; each row sums its
+// entries in stored order. T's product on blocks, and its renumbered copy's
+// (permuted_transport.h).
+void apply_weighted_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& row_colour,
+                         const FieldBlock& in, FieldBlock& out);
 
 // Builds T from the form factors and, if given, the specular transfer (which also decides the
 // links). With on_the_fly the link rows are not stored but recomputed at every application.

@@ -58,6 +58,11 @@ class ObjectReader {
   double number(std::string_view key);
   std::optional<double> optional_number(std::string_view key);
   std::string string(std::string_view key);
+  bool boolean(std::string_view key);
+  // A whole number in [lo, hi].
+  long long integer(std::string_view key, double lo, double hi);
+  // A number, or null read as +infinity (the writer's form of a non-finite bound).
+  double number_or_infinity(std::string_view key);
   const JsonValue& array(std::string_view key);
   const JsonValue& object(std::string_view key);
   void finish() const;

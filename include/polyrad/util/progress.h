@@ -43,4 +43,17 @@ class Progress {
   bool visible_ = true;
 };
 
+// Turns displays off for its lifetime (and back as they were): a workflow that runs many inner
+// stages shows its own display only.
+class QuietProgress {
+ public:
+  QuietProgress() : was_(Progress::enabled()) { Progress::set_enabled(false); }
+  ~QuietProgress() { Progress::set_enabled(was_); }
+  QuietProgress(const QuietProgress&) = delete;
+  QuietProgress& operator=(const QuietProgress&) = delete;
+
+ private:
+  bool was_;
+};
+
 }  // namespace polyrad

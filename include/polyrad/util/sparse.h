@@ -1,18 +1,29 @@
-// Compressed sparse rows, the storage of every operator polyrad builds.
+// Compressed sparse rows, the storage of every operator polyrad builds, and their products.
 //
 // Rows are contiguous runs of (column, value) pairs in column order. Value is a scalar (float)
-// for geometric weights and an RGB triple for the camera gather.
+// for geometric weights and an RGB triple for the camera gather. The operand of a product holds
+// `width` doubles per column index, row-major (a Field: 3; a block of C fields: 3 C); a scalar
+// value scales all of them, an RGB value scales value j % 3 by channel j % 3.
 //
 //   Csr<float> f = ...;
-//   for (auto k = f.start[i]; k < f.start[i + 1]; ++k) use(f.column[k], f.value[k]);
+//   for (auto [column, value] : f.row(i)) use(column, value);
+//   f.multiply(x.data(), 3, y.data());            // y = F x, rows in parallel
 //
 // Memory: 4 bytes per column index plus sizeof(V) per value, plus 8 bytes per row.
+// multiply: one pass over the entries, width multiply-adds each.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace polyrad {
+
+namespace sparse_detail {
+inline double scale(float v, std::int64_t) { return v; }
+inline double scale(const std::array<float, 3>& v, std::int64_t j) { return v[j % 3]; }
+}  // namespace sparse_detail
 
 template <typename V>
 struct Csr {
@@ -36,10 +47,56 @@ struct Csr {
     std::int64_t lo = start[r], hi = start[r + 1];
     while (lo < hi) {
       std::int64_t mid = (lo + hi) / 2;
-      if (column[mid] < c) lo = mid + 1;
-      else hi = mid;
+      if (column[mid] < c)
+        lo = mid + 1;
+      else
+        hi = mid;
     }
     return (lo < start[r + 1] && column[lo] == c) ? value[lo] : V{};
+  }
+
+  // The entries of row r, for range-for: each a (column, value) pair.
+  struct Entry {
+    std::int32_t column;
+    const V& value;
+  };
+  class RowIterator {
+   public:
+    RowIterator(const Csr* m, std::int64_t k) : m_(m), k_(k) {}
+    Entry operator*() const { return {m_->column[k_], m_->value[k_]}; }
+    RowIterator& operator++() {
+      ++k_;
+      return *this;
+    }
+    bool operator!=(const RowIterator& o) const { return k_ != o.k_; }
+
+   private:
+    const Csr* m_;
+    std::int64_t k_;
+  };
+  struct Row {
+    RowIterator b, e;
+    RowIterator begin() const { return b; }
+    RowIterator end() const { return e; }
+  };
+  Row row(std::int64_t r) const { return {{this, start[r]}, {this, start[r + 1]}}; }
+
+  // acc[j] += sum over the entries of row r of value(j) x[width column + j], j < width: the row
+  // loop of every product, entries summed in stored order (so every product gives the same bits).
+  void accumulate_row(std::int64_t r, const double* x, std::int64_t width, double* acc) const {
+    for (std::int64_t k = start[r]; k < start[r + 1]; ++k) {
+      const double* xr = x + width * static_cast<std::int64_t>(column[k]);
+      for (std::int64_t j = 0; j < width; ++j) acc[j] += sparse_detail::scale(value[k], j) * xr[j];
+    }
+  }
+  // y = A x with `width` values per row of x and y; y has rows x width entries, overwritten.
+  void multiply(const double* x, std::int64_t width, double* y) const {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (std::int64_t r = 0; r < rows; ++r) {
+      double* yr = y + width * r;
+      std::fill(yr, yr + width, 0.0);
+      accumulate_row(r, x, width, yr);
+    }
   }
 };
 

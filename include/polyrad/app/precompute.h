@@ -1,0 +1,39 @@
+// The precompute as one library call: the workflow behind `polyrad precompute`. Builds the
+// world and its radiosity system with the options given, then the series operator; the
+// operator records everything relighting needs to read it back (scene hash, overrides, gather).
+//
+//   PrecomputeOptions o;
+//   o.series.tolerance = 1e-3;
+//   o.series.output = SeriesOutput::kSolution;
+//   PrecomputeResult r = precompute("scenes/cornell-box.json", o);
+//   write_prt(r.op, "out/scene.prt");
+//
+// Throws InputError (bad scene, options that contradict each other), NumericalError (the
+// series diverges). Cost: the system's build plus the precompute (series_precompute.h).
+#pragma once
+
+#include <string>
+
+#include "polyrad/app/report.h"
+#include "polyrad/solve/series_precompute.h"
+#include "polyrad/transport/system.h"
+
+namespace polyrad {
+
+struct PrecomputeOptions {
+  SceneOptions scene;
+  SceneOverrides overrides;
+  SystemOptions system;
+  SeriesOptions series;  // its gather: folded into view rows, or recorded for solution rows
+};
+
+struct PrecomputeResult {
+  SeriesOperator op;
+  Report report;
+};
+
+// Throws InputError before any work when series and system options contradict each other.
+void check_series_options(const SeriesOptions& series, const SystemOptions& system);
+PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptions& options);
+
+}  // namespace polyrad

@@ -1,0 +1,58 @@
+// Path-traced references cached on disk (app/reference_cache.h).
+#include "polyrad/app/reference_cache.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "polyrad/io/image_io.h"
+#include "polyrad/util/files.h"
+#include "polyrad/util/json.h"
+
+namespace polyrad {
+
+std::string reference_key(const Scene& scene, const PathTraceOptions& o) {
+  std::ostringstream k;
+  k << "scene_hash=" << scene.hash << ";camera=" << scene.camera.width << "x" << scene.camera.height
+    << ";spp=" << o.spp << ";seed=" << o.seed << ";max_depth=" << o.max_depth
+    << ";roulette_depth=" << o.roulette_depth;
+  return k.str();
+}
+
+CachedReference cached_reference(const std::string& dir, const World& world,
+                                 const PathTraceOptions& o) {
+  const std::string image_path = dir + "/reference.exr", key_path = dir + "/reference.json";
+  const std::string key = reference_key(world.scene(), o);
+  CachedReference ref;
+  if (std::filesystem::exists(image_path) && std::filesystem::exists(key_path)) {
+    const JsonValue stored = parse_json(read_text_file(key_path, "the reference's key"), key_path);
+    const JsonValue* k = stored.find("key");
+    if (k && k->is(JsonValue::Kind::kString) && k->string == key) {
+      ref.image = read_image(image_path);
+      const JsonValue* s = stored.find("seconds");
+      ref.seconds = s && s->is(JsonValue::Kind::kNumber) ? s->number : std::nan("");
+      ref.reused = true;
+      return ref;
+    }
+    std::fprintf(stderr,
+                 "polyrad: %s is stale (other scene, camera or samples); rendering it again\n",
+                 image_path.c_str());
+  }
+  const PathTraceResult r = PathTracer(world).render(world.camera(), o);
+  if (!r.image.all_finite())
+    throw NumericalError("the path-traced reference has non-finite pixels");
+  write_image(r.image, image_path);
+  JsonWriter w;
+  w.begin_object()
+      .value("key", key)
+      .value("seconds", r.seconds)
+      .value("rays", r.stats.rays)
+      .end_object();
+  write_file_atomic(key_path, w.str());
+  ref.image = read_image(image_path);
+  ref.seconds = r.seconds;
+  return ref;
+}
+
+}  // namespace polyrad

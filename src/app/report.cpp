@@ -1,0 +1,251 @@
+// The one report of every workflow (app/report.h).
+#include "polyrad/app/report.h"
+
+#include <cmath>
+
+#include "polyrad/io/serialize.h"
+#include "polyrad/util/json.h"
+#include "polyrad/util/machine.h"
+
+namespace polyrad {
+
+GatherSummary summarize(const Gather& g) {
+  return {g.options, g.rays, static_cast<long long>(g.g.nnz()), g.bytes(), g.seconds};
+}
+
+double mean_relative_standard_error(const PathTraceResult& r) {
+  if (r.standard_error.rgb.empty()) return std::nan("");
+  double sum = 0.0;
+  long long lit = 0;
+  for (int y = 0; y < r.image.height; ++y)
+    for (int x = 0; x < r.image.width; ++x) {
+      const double l = luminance(r.image.at(x, y));
+      if (l <= 0.0) continue;
+      sum += luminance(r.standard_error.at(x, y)) / l;
+      ++lit;
+    }
+  return lit > 0 ? sum / static_cast<double>(lit) : std::nan("");
+}
+
+PathTraceSummary summarize(const PathTraceResult& r, const PathTraceOptions& o) {
+  PathTraceSummary s;
+  s.width = r.image.width;
+  s.height = r.image.height;
+  s.spp = o.spp;
+  s.max_depth = o.max_depth;
+  s.seed = o.seed;
+  s.stats = r.stats;
+  s.seconds = r.seconds;
+  s.mean_relative_standard_error = mean_relative_standard_error(r);
+  return s;
+}
+
+void Report::finish() {
+  peak_memory_bytes = ::polyrad::peak_memory_bytes();
+  machine = machine_description();
+}
+
+namespace {
+
+void write_lobe_fields(JsonWriter& w, const LobeResolution& r) {
+  w.value("object", r.object_name).value("material", r.material_name).value("lobe", r.lobe);
+  w.value("lobe_width_degrees", r.lobe_degrees).value("patch_angle_degrees", r.patch_degrees);
+  w.value("patch_size", r.current_patch_size);
+  w.value("resolving_patch_size", r.resolving_patch_size);
+}
+
+void write_lobe_warnings(JsonWriter& w, std::string_view key,
+                         const std::vector<LobeResolution>& lobes) {
+  w.begin_array(key);
+  for (const auto& r : lobes) {
+    if (!r.smeared) continue;
+    w.begin_object().value("kind", "lobe_smeared_by_patches");
+    write_lobe_fields(w, r);
+    w.value("message", describe_smear(r)).end_object();
+  }
+  w.end_array();
+}
+
+void write_lobe_checks(JsonWriter& w, const std::vector<LobeResolution>& lobes) {
+  w.begin_array("lobe_resolution");
+  for (const auto& r : lobes) {
+    w.begin_object();
+    write_lobe_fields(w, r);
+    w.value("smeared", r.smeared).end_object();
+  }
+  w.end_array();
+}
+
+// ---- report sections -------------------------------------------------------------------------
+
+void write_json(JsonWriter& w, std::string_view key, const StageTimes& times) {
+  w.begin_object(key);
+  for (const auto& t : times) w.value(t.name, t.seconds);
+  w.end_object();
+}
+
+void write_json(JsonWriter& w, std::string_view key, const SolveResult& r) {
+  w.begin_object(key);
+  w.value("solver", enum_name(r.method));
+  w.value("status", enum_name(r.status));
+  w.value("iterations", r.iterations);
+  w.value("residual", r.residual);
+  w.value("seconds", r.seconds);
+  if (!r.message.empty()) w.value("message", r.message);
+  w.begin_array("sweep_residuals");
+  for (double x : r.sweep_residual) w.element(x);
+  w.end_array();
+  w.end_object();
+}
+
+void write_json(JsonWriter& w, std::string_view key, const ImageComparison& c) {
+  w.begin_object(key);
+  w.value("width", c.width).value("height", c.height);
+  write_rgb(w, "epsilon", c.epsilon);
+  w.value("relative_rmse", c.relative_rmse);
+  w.value("relative_l1", c.relative_l1);
+  w.value("mean_relative_error", c.mean_relative_error);
+  w.value("normalized_rmse", c.normalized_rmse);
+  write_rgb(w, "mean_a", c.mean_a);
+  write_rgb(w, "mean_b", c.mean_b);
+  if (!c.regions.empty()) {
+    w.value("worst_region_difference", c.worst_region_difference);
+    w.value("pixels_without_region", c.pixels_without_region);
+    w.begin_array("regions");
+    for (const auto& r : c.regions) {
+      w.begin_object();
+      w.value("name", r.name).value("pixels", r.pixels);
+      write_rgb(w, "mean_a", r.mean_a);
+      write_rgb(w, "mean_b", r.mean_b);
+      write_rgb(w, "relative_difference", r.relative_difference);
+      w.value("luminance_difference", r.luminance_difference);
+      w.value("relative_l1", r.relative_l1);
+      w.end_object();
+    }
+    w.end_array();
+  }
+  w.begin_array("worst_pixels");
+  for (const auto& p : c.worst) {
+    w.begin_object();
+    w.value("x", p.x).value("y", p.y);
+    write_rgb(w, "a", p.a);
+    write_rgb(w, "b", p.b);
+    w.value("error", p.error);
+    w.end_object();
+  }
+  w.end_array();
+  w.end_object();
+}
+
+void write_json(JsonWriter& w, std::string_view key, const SystemSummary& s) {
+  w.begin_object(key);
+  w.value("patches", s.patches);
+  w.value("links", s.links);
+  w.value("unknowns", s.unknowns);
+  w.begin_object("form_factors")
+      .value("pairs_facing", s.form_factors.pairs_facing)
+      .value("pairs_visible", s.form_factors.pairs_visible)
+      .value("rays", s.form_factors.rays)
+      .value("nnz", s.form_factor_nnz)
+      .value("bytes", s.form_factor_bytes)
+      .value("seconds", s.form_factors.seconds)
+      .end_object();
+  w.begin_object("specular_transfer")
+      .value("link_pairs", s.specular.pairs)
+      .value("entries", s.specular_entries)
+      .value("rays", s.specular.rays)
+      .value("pairs_unseen", s.specular.pairs_unseen)
+      .value("dropped_hits", s.specular.dropped_hits)
+      .value("balance_residual", s.specular.balance_mismatch)
+      .value("escaped_fraction", s.specular.escaped_fraction)
+      .value("bytes", s.specular_bytes)
+      .value("seconds", s.specular.seconds)
+      .end_object();
+  w.begin_object("operator")
+      .value("on_the_fly", s.on_the_fly)
+      .value("nnz_diffuse", s.nnz_diffuse)
+      .value("nnz_specular", s.nnz_specular)
+      .value("bytes", s.operator_bytes)
+      .value("max_albedo", s.max_albedo)
+      .end_object();
+  write_lobe_checks(w, s.lobes);
+  w.end_object();
+}
+
+void write_gather(JsonWriter& w, const GatherSummary& g) {
+  w.begin_object("gather");
+  write_json(w, "options", g.options);
+  w.value("rays", g.rays).value("nnz", g.nnz).value("bytes", g.bytes).value("seconds", g.seconds);
+  w.end_object();
+}
+
+void write_series(JsonWriter& w, const SeriesMetadata& m) {
+  w.begin_object("series");
+  write_operator_metadata(w, m);
+  w.end_object();
+}
+
+void write_pathtrace(JsonWriter& w, const PathTraceSummary& p) {
+  w.begin_object("pathtrace");
+  w.value("width", p.width).value("height", p.height);
+  w.value("spp", p.spp)
+      .value("seed", static_cast<long long>(p.seed))
+      .value("max_depth", p.max_depth);
+  w.value("paths", p.stats.paths)
+      .value("rays", p.stats.rays)
+      .value("paths_truncated", p.stats.truncated);
+  w.value("rays_per_second", p.seconds > 0.0 ? static_cast<double>(p.stats.rays) / p.seconds : 0.0);
+  w.value("mean_relative_standard_error", p.mean_relative_standard_error);
+  w.value("seconds", p.seconds);
+  w.end_object();
+}
+
+void write_relight(JsonWriter& w, const RelightSummary& r) {
+  w.begin_object("relight");
+  w.begin_object("emission");
+  for (const auto& [name, rgb] : r.emission) write_rgb(w, name, rgb);
+  w.end_object();
+  w.value("product_seconds_median", r.product.median);
+  w.value("product_seconds_min", r.product.min);
+  w.value("product_repeats", r.product.repeats);
+  w.value("bytes_touched", r.bytes_touched);
+  w.value("bytes_per_second", r.product.median > 0.0 ? r.bytes_touched / r.product.median : 0.0);
+  w.value("gather_seconds", r.gather_seconds);
+  w.end_object();
+}
+
+}  // namespace
+
+std::string to_json(const Report& r) {
+  JsonWriter w;
+  w.begin_object();
+  w.value("command", r.command);
+  if (!r.method.empty()) w.value("method", r.method);
+  if (!r.scene.empty()) w.value("scene", r.scene);
+  if (!r.inputs.empty()) {
+    w.begin_object("inputs");
+    for (const auto& [role, path] : r.inputs) w.value(role, path);
+    w.end_object();
+  }
+  if (r.overrides) write_json(w, "overrides", *r.overrides);
+  write_lobe_warnings(w, "warnings", r.system ? r.system->lobes : std::vector<LobeResolution>{});
+  if (r.system) write_json(w, "system", *r.system);
+  if (r.solve) write_json(w, "solve", *r.solve);
+  if (r.gather) write_gather(w, *r.gather);
+  if (r.series) write_series(w, *r.series);
+  if (r.pathtrace) write_pathtrace(w, *r.pathtrace);
+  if (r.relight) write_relight(w, *r.relight);
+  if (r.comparison) write_json(w, "comparison", *r.comparison);
+  if (!r.figures.empty()) {
+    w.begin_object("figures");
+    for (const auto& [name, x] : r.figures) w.value(name, x);
+    w.end_object();
+  }
+  write_json(w, "seconds", r.seconds);
+  w.value("peak_memory_bytes", r.peak_memory_bytes);
+  w.value("machine", r.machine);
+  w.end_object();
+  return w.str();
+}
+
+}  // namespace polyrad

@@ -1,0 +1,113 @@
+// The command line's shared pieces (flags.h).
+#include "flags.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "polyrad/io/image_io.h"
+#include "polyrad/util/files.h"
+
+namespace polyrad::cli {
+
+void check_output_path(const std::string& path, const char* what) {
+  std::filesystem::path p(path);
+  std::filesystem::path dir = p.parent_path();
+  if (p.filename().empty()) throw InputError(std::string(what) + " '" + path + "' names no file");
+  if (!dir.empty() && !std::filesystem::is_directory(dir))
+    throw InputError(std::string(what) + " '" + path + "': directory '" + dir.string() +
+                     "' does not exist");
+  if (std::filesystem::is_directory(p))
+    throw InputError(std::string(what) + " '" + path + "' is a directory");
+}
+
+void check_image_path(const std::string& path) {
+  check_output_path(path, "image");
+  if (!is_image_path(path))
+    throw InputError("image '" + path + "': unknown format (use .exr, .pfm or .png)");
+}
+
+void write_report(const std::string& path, const Report& report) {
+  if (!path.empty()) write_file_atomic(path, to_json(report));
+}
+
+void print_warnings(const std::vector<LobeResolution>& lobes) {
+  for (const auto& r : lobes)
+    if (r.smeared) std::fprintf(stderr, "polyrad: warning: %s\n", describe_smear(r).c_str());
+}
+
+void SystemFlags::add(CLI::App& app) {
+  app.add_option("--patch-size", patch_size, "Override every patch_size of the scene")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--specular-samples", specular_samples,
+                 "Point pairs per link pair for the specular transfer")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  app.add_flag("--classic", classic,
+               "Classic radiosity: every material reduced to its diffuse part");
+  app.add_flag("--centre-point", centre_point,
+               "Specular transfer by the seed's centre-point rho (for comparison only)");
+  app.add_option(
+         "--max-memory", max_memory_gib,
+         "Refuse scenes estimated to need more memory than this, in GiB (default: 80% of RAM)")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--specular-on-the-fly", on_the_fly,
+               "Recompute the specular transfer at every sweep instead of storing it");
+  app.add_flag("--allow-unsafe-albedo", unsafe_albedo,
+               "UNSAFE: accept materials whose albedo may exceed 1 (to test divergence detection)");
+}
+
+SceneOptions SystemFlags::scene() const {
+  SceneOptions o;
+  o.allow_unsafe_albedo = unsafe_albedo;
+  return o;
+}
+
+SceneOverrides SystemFlags::overrides() const { return {patch_size, classic}; }
+
+SystemOptions SystemFlags::system() const {
+  SystemOptions o;
+  o.specular.samples = specular_samples;
+  if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
+  o.specular_on_the_fly = on_the_fly;
+  o.max_memory_bytes = max_memory_gib * (1ull << 30);
+  return o;
+}
+
+void GatherFlags::add(CLI::App& app) {
+  add_enum_option(app, "--diffuse", options.diffuse, "Diffuse shading in the image");
+  app.add_option("--pixel-grid", options.pixel_grid, "Sub-pixel rays per side")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  app.add_option("--lobe-samples", options.lobe_samples, "Gather samples of a glossy lobe")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  app.add_option("--light-samples", options.light_samples,
+                 "Gather points on the lights per glossy hit, weighted against the lobe samples "
+                 "(0: lobe samples alone)")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+}
+
+std::map<std::string, Rgb> parse_emissions(const std::vector<std::string>& texts) {
+  std::map<std::string, Rgb> out;
+  for (const auto& text : texts) {
+    const auto eq = text.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw InputError("--emission expects NAME=R,G,B, got '" + text + "'");
+    const std::string name = text.substr(0, eq);
+    std::stringstream ss(text.substr(eq + 1));
+    Rgb c;
+    char comma1 = 0, comma2 = 0;
+    if (!(ss >> c[0] >> comma1 >> c[1] >> comma2 >> c[2]) || comma1 != ',' || comma2 != ',' ||
+        !ss.eof())
+      throw InputError("--emission expects NAME=R,G,B with three numbers, got '" + text + "'");
+    if ((c < 0.0).any() || !c.isFinite().all())
+      throw InputError("--emission for '" + name + "' must be finite and not negative");
+    if (out.count(name)) throw InputError("--emission names '" + name + "' twice");
+    out[name] = c;
+  }
+  return out;
+}
+
+}  // namespace polyrad::cli

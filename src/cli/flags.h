@@ -1,0 +1,80 @@
+// The command line's shared pieces: flag groups that fill the library's options, checks of
+// output paths before any work, and the report. Each subcommand (src/cli/<name>_command.cpp)
+// parses its flags into options, calls one workflow of the library (include/polyrad/app/), and
+// writes what it returned; main.cpp maps errors by kind to exit codes.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "polyrad/app/report.h"
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/scene/scene.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/enum_names.h"
+
+namespace polyrad::cli {
+
+// Exit codes of the command line (README, "Exit codes").
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitNumerical = 3;
+
+// An option whose value is one of an enum's names (util/enum_names.h); its default shown.
+template <typename E>
+CLI::Option* add_enum_option(CLI::App& app, const std::string& name, E& value,
+                             const std::string& help) {
+  std::map<std::string, E> names;
+  for (const auto& [v, n] : EnumNames<E>::table) names.emplace(n, v);
+  return app.add_option(name, value, help)
+      ->transform(CLI::CheckedTransformer(names))
+      ->default_str(enum_name(value));
+}
+
+// Throws InputError unless the directory of `path` exists (outputs are checked before work).
+void check_output_path(const std::string& path, const char* what);
+void check_image_path(const std::string& path);
+
+// The report, when a path was given.
+void write_report(const std::string& path, const Report& report);
+
+// One "polyrad: warning: ..." line on stderr per lobe the patches smear.
+void print_warnings(const std::vector<LobeResolution>& lobes);
+
+// What every command that builds a radiosity system takes.
+struct SystemFlags {
+  double patch_size = 0.0;
+  int specular_samples = 16;
+  bool classic = false;
+  bool centre_point = false;
+  bool on_the_fly = false;
+  bool unsafe_albedo = false;
+  double max_memory_gib = 0.0;
+  void add(CLI::App& app);
+  SceneOptions scene() const;
+  SceneOverrides overrides() const;
+  SystemOptions system() const;
+};
+
+// The camera gather's flags, for `render` and `precompute`.
+struct GatherFlags {
+  GatherOptions options;
+  void add(CLI::App& app);
+};
+
+// NAME=R,G,B, repeatable, into a map; a name given twice, malformed text, or a negative or
+// non-finite value is an InputError.
+std::map<std::string, Rgb> parse_emissions(const std::vector<std::string>& texts);
+
+void add_render_command(CLI::App& app, int& exit_code);
+void add_precompute_command(CLI::App& app, int& exit_code);
+void add_relight_command(CLI::App& app, int& exit_code);
+void add_compare_command(CLI::App& app, int& exit_code);
+void add_sweep_command(CLI::App& app, int& exit_code);
+void add_convergence_command(CLI::App& app, int& exit_code);
+void add_demo_command(CLI::App& app, int& exit_code);
+
+}  // namespace polyrad::cli

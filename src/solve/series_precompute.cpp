@@ -1,0 +1,425 @@
+// The series precompute (solve/series_precompute.h); papers/glossy-radiosity.md, sec. 5-6.
+#include "polyrad/solve/series_precompute.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "polyrad/solve/solver.h"
+#include "polyrad/transport/permuted_transport.h"
+#include "polyrad/transport/reorder.h"
+#include "polyrad/util/half.h"
+#include "polyrad/util/progress.h"
+#include "polyrad/util/timer.h"
+
+namespace polyrad {
+
+namespace {
+
+// Growth of the term norms for this many terms in a row means the series diverges.
+constexpr int kGrowthTerms = 8;
+
+struct Terms {
+  int order = 0;
+  std::vector<double> norms;  // relative to ||S||
+  double spectral_radius = 0.0;
+  double aposteriori = 0.0;
+  double residual_bound = INFINITY;
+};
+
+// q, the decay of the term norms (solver.h, extrapolated_decay), capped by a_max, which bounds
+// the spectral radius (section 5).
+double ratio_estimate(const std::vector<double>& norms, double a_max) {
+  double q = extrapolated_decay(norms);
+  return a_max > 0.0 ? std::min(q, a_max) : q;
+}
+
+// Term norms ||T^n S|| of all columns together (S = 1 on every emitting patch; every column is
+// non-negative, so the norm of the sum is the sum of the norms) and the order K: given, or the
+// smallest K whose a-priori bound or a-posteriori estimate meets the tolerance. Channels decay
+// at their own rates (coloured reflectances), so the estimate is the worst channel's: then any
+// emission colour meets the tolerance.
+Terms choose_order(const TransportOperator& t, const Field& s, const SeriesOptions& o) {
+  const double a = t.max_albedo();
+  auto channel_norms = [&](const Field& f) { return t.flux_norm_channels(f); };
+  const Eigen::Array3d s_norm = channel_norms(s);
+  Terms terms;
+  terms.norms.push_back(1.0);
+  if (s_norm.sum() == 0.0) return terms;
+  std::vector<double> channel[3] = {{1.0}, {1.0}, {1.0}};
+  Eigen::Array3d acc = Eigen::Array3d::Ones();
+  Field term = s, next;
+  const int limit = o.order >= 0 ? o.order : o.max_order;
+  for (int n = 1; n <= limit; ++n) {
+    t.apply(term, next);
+    term.swap(next);
+    Eigen::Array3d norm = channel_norms(term) / s_norm.max(1e-300);
+    double total = channel_norms(term).sum() / s_norm.sum();
+    if (!norm.isFinite().all())
+      throw NumericalError("the power series produced non-finite terms at n = " +
+                           std::to_string(n));
+    terms.norms.push_back(total);
+    acc += norm;  // non-negative terms: the norm of the sum is the sum of the norms
+    int m = static_cast<int>(terms.norms.size());
+    if (m > kGrowthTerms + 1) {
+      bool growing = true;
+      for (int k = m - kGrowthTerms; k < m; ++k)
+        growing = growing && terms.norms[k] > terms.norms[k - 1];
+      if (growing && total > 1.0) {
+        std::ostringstream msg;
+        msg << "the power series diverges: its terms grew by " << total / terms.norms[m - 2]
+            << " per order over the last " << kGrowthTerms << " (spectral radius above 1)";
+        if (a > 1.0) msg << "; " << t.divergence_hint();
+        throw NumericalError(msg.str());
+      }
+    }
+    terms.spectral_radius = 0.0;
+    terms.aposteriori = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      if (s_norm[c] == 0.0) continue;
+      channel[c].push_back(norm[c]);
+      double q = ratio_estimate(channel[c], a);
+      terms.spectral_radius = std::max(terms.spectral_radius, q);
+      terms.aposteriori =
+          std::max(terms.aposteriori, q < 1.0 ? norm[c] * q / (1.0 - q) / acc[c] : INFINITY);
+    }
+    terms.order = n;
+    if (o.order >= 0) continue;
+    double apriori = a < 1.0 ? std::pow(a, n + 1) / (1.0 - a) : INFINITY;
+    if (apriori <= o.tolerance || (n >= 3 && terms.aposteriori <= o.tolerance)) return terms;
+  }
+  if (o.order < 0)
+    throw NumericalError("the power series did not reach the tolerance " +
+                         std::to_string(o.tolerance) + " within " + std::to_string(o.max_order) +
+                         " terms");
+  return terms;
+}
+
+// Chebyshev: rho from a few power steps unless given, then the order from the residual, a
+// rigorous bound in the flux norm: ||x - x_K|| <= ||e + T x_K - x_K|| / (1 - a_max).
+Terms choose_chebyshev_order(const TransportOperator& t, const Field& s, const SeriesOptions& o,
+                             double* rho) {
+  const double a = t.max_albedo();
+  if (!(a < 1.0))
+    throw NumericalError("Chebyshev acceleration needs every albedo below 1; " +
+                         t.divergence_hint());
+  if (*rho <= 0.0) *rho = estimate_spectral_radius(t, s);
+  const Eigen::Array3d s_norm = t.flux_norm_channels(s);
+  Terms terms;
+  terms.spectral_radius = *rho;
+  terms.norms.push_back(1.0);
+  ChebyshevIteration<Field> cheb(t, s, *rho);
+  const int limit = o.order >= 0 ? o.order + 1 : o.max_order;
+  for (int n = 0; n < limit; ++n) {
+    Eigen::Array3d x_norm = t.flux_norm_channels(cheb.x());
+    const Field& residual = cheb.step();  // residual of x_n
+    Eigen::Array3d r_norm = t.flux_norm_channels(residual);
+    double bound = 0.0;
+    for (int c = 0; c < 3; ++c)
+      if (s_norm[c] > 0.0) bound = std::max(bound, r_norm[c] / (1.0 - a) / x_norm[c]);
+    if (!std::isfinite(bound))
+      throw NumericalError("the Chebyshev polynomial produced non-finite terms");
+    if (n > 0) terms.norms.push_back(r_norm.sum() / s_norm.sum());
+    terms.order = n;
+    terms.residual_bound = bound;
+    if (o.order < 0 && bound <= o.tolerance) return terms;
+    if (n > 2 * kGrowthTerms && terms.norms.back() > terms.norms.front())
+      throw NumericalError(
+          "the Chebyshev polynomial diverges: its residual grows (the spectral radius " +
+          std::to_string(*rho) + " it assumed is too small, or the spectrum is not real)");
+  }
+  if (o.order < 0)
+    throw NumericalError("the Chebyshev polynomial did not reach the tolerance within " +
+                         std::to_string(o.max_order) + " terms");
+  return terms;
+}
+
+// P_K S for one block of columns by the running sum u_K = sum_{n<=K} T^n S (eq. 10), or the
+// Chebyshev polynomial's x_K: `order` products with op, which is T or its renumbered copy.
+template <typename Op>
+FieldBlock block_polynomial(const Op& op, FieldBlock term, int order, bool chebyshev, double rho,
+                            Progress& progress) {
+  if (chebyshev) {
+    ChebyshevIteration<FieldBlock, Op> cheb(op, term, rho);
+    for (int n = 1; n <= order; ++n) {
+      cheb.step();
+      progress.advance();
+    }
+    return cheb.x();
+  }
+  FieldBlock acc = term, next;
+  for (int n = 1; n <= order; ++n) {
+    op.apply(term, next);
+    term.swap(next);
+    acc += term;
+    progress.advance();
+  }
+  return acc;
+}
+
+// The numbering of the block products (SeriesOptions::reorder): null for T's own, else T's
+// renumbered copy. Records the ordering's cost and T's bandwidth before and after.
+std::unique_ptr<PermutedTransport> reordered_transport(const TransportOperator& t,
+                                                       SeriesReorder reorder, SeriesReport& rep) {
+  const Stopwatch watch;
+  std::unique_ptr<PermutedTransport> permuted;
+  if (reorder == SeriesReorder::kRcm)
+    permuted = std::make_unique<PermutedTransport>(t, reverse_cuthill_mckee(t.weights()));
+  rep.reorder = reorder;
+  rep.reorder_seconds = watch.seconds();
+  rep.bandwidth_before = bandwidth(t.weights());
+  rep.bandwidth_after = permuted ? bandwidth(permuted->weights()) : rep.bandwidth_before;
+  return permuted;
+}
+
+// Which patches each column lights: its patch, or every patch of its object.
+std::vector<std::vector<PatchId>> lit_patches(const std::vector<SeriesColumn>& columns,
+                                              const World& world) {
+  const PatchSet& patches = world.patches();
+  std::vector<std::vector<PatchId>> lit(columns.size());
+  for (size_t c = 0; c < columns.size(); ++c) {
+    if (columns[c].patch >= 0) {
+      lit[c].push_back(columns[c].patch);
+      continue;
+    }
+    const ObjectId obj = world.scene().find_object(columns[c].object);
+    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+      if (patches[p].object == obj) lit[c].push_back(p);
+  }
+  return lit;
+}
+
+// The flux-weighted energy of row r of column c in a block of rows (3 values a column).
+double row_energy(const FieldBlock& out, std::int64_t r, int c, double weight) {
+  return weight * (out(r, 3 * c) + out(r, 3 * c + 1) + out(r, 3 * c + 2));
+}
+
+// Drop the smallest entries of each column while their share of the column's energy (the
+// flux-weighted sum over channels) stays within `drop`: the image or solution loses at most
+// that fraction of each light's contribution, whatever the light's colour. (A threshold
+// relative to the column's largest entry would not: in view mode that entry is a pixel seeing
+// the lamp, and most of the indirect light falls below it.) Returns each column's threshold:
+// entries of lower energy are dropped.
+std::vector<double> drop_thresholds(const FieldBlock& out, int width, double drop,
+                                    const std::vector<double>* flux_weight) {
+  std::vector<double> threshold(width, 0.0);
+  if (!(drop > 0.0)) return threshold;
+  const std::int64_t rows = out.rows();
+  std::vector<double> e(rows);
+  for (int c = 0; c < width; ++c) {
+    double column_total = 0.0;
+    for (std::int64_t r = 0; r < rows; ++r)
+      column_total += (e[r] = row_energy(out, r, c, flux_weight ? (*flux_weight)[r] : 1.0));
+    std::sort(e.begin(), e.end());
+    double cumulative = 0.0;
+    for (std::int64_t r = 0; r < rows; ++r) {
+      if (cumulative + e[r] > drop * column_total) {
+        threshold[c] = e[r];
+        break;
+      }
+      cumulative += e[r];
+    }
+  }
+  return threshold;
+}
+
+// Q's rows gathered batch by batch of columns: each batch a compressed-rows piece; assemble()
+// joins them row by row, batches in column order, in the precision asked for.
+class RowPieces {
+ public:
+  explicit RowPieces(std::int64_t rows) : rows_(rows) {}
+  // Appends the rows of one batch (columns c0 .. c0 + width of Q), dropping entries under the
+  // thresholds. Measures, for the columns' scene emission, what dropping removed.
+  void add(const FieldBlock& out, std::int64_t c0, int width,
+           const std::vector<SeriesColumn>& columns, const std::vector<double>& threshold,
+           const std::vector<double>* flux_weight) {
+    std::vector<std::int64_t> bs{0};
+    std::vector<std::uint32_t> bc;
+    std::vector<float> bv;
+    for (std::int64_t r = 0; r < rows_; ++r) {
+      const double w = flux_weight ? (*flux_weight)[r] : 1.0;
+      for (int c = 0; c < width; ++c) {
+        const SeriesColumn& col = columns[c0 + c];
+        const double v[3] = {out(r, 3 * c), out(r, 3 * c + 1), out(r, 3 * c + 2)};
+        const double mass =
+            w * (v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
+        total_ += mass;
+        if (std::max({v[0], v[1], v[2]}) <= 0.0) continue;
+        if (row_energy(out, r, c, w) < threshold[c]) {
+          dropped_ += mass;
+          continue;
+        }
+        bc.push_back(static_cast<std::uint32_t>(c0 + c));
+        for (double x : v) bv.push_back(static_cast<float>(x));
+      }
+      bs.push_back(static_cast<std::int64_t>(bc.size()));
+    }
+    start_.push_back(std::move(bs));
+    column_.push_back(std::move(bc));
+    value_.push_back(std::move(bv));
+  }
+
+  // The rows into q (compressed, then dense when at least 3/4 of the entries are stored).
+  void assemble(SeriesOperator& q) const {
+    std::vector<std::int64_t> start(rows_ + 1, 0);
+    for (std::int64_t r = 0; r < rows_; ++r) {
+      std::int64_t n = 0;
+      for (const auto& bs : start_) n += bs[r + 1] - bs[r];
+      start[r + 1] = start[r] + n;
+    }
+    const bool half = q.precision == ValuePrecision::kHalf;
+    std::vector<std::uint32_t> column(start[rows_]);
+    std::vector<float> values_f(half ? 0 : 3 * start[rows_]);
+    std::vector<std::uint16_t> values_h(half ? 3 * start[rows_] : 0);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t r = 0; r < rows_; ++r) {
+      std::int64_t at = start[r];
+      for (size_t b = 0; b < start_.size(); ++b)
+        for (auto k = start_[b][r]; k < start_[b][r + 1]; ++k, ++at) {
+          column[at] = column_[b][k];
+          for (int ch = 0; ch < 3; ++ch) {
+            const float v = value_[b][3 * k + ch];
+            if (half)
+              values_h[3 * at + ch] = float_to_half(v);
+            else
+              values_f[3 * at + ch] = v;
+          }
+        }
+    }
+    q.set_data(rows_, std::move(start), std::move(column), std::move(values_f),
+               std::move(values_h));
+    q.densify_if(0.75);
+  }
+
+  double dropped() const { return dropped_; }
+  double total() const { return total_; }
+
+ private:
+  std::int64_t rows_;
+  std::vector<std::vector<std::int64_t>> start_;
+  std::vector<std::vector<std::uint32_t>> column_;
+  std::vector<std::vector<float>> value_;
+  double dropped_ = 0.0, total_ = 0.0;
+};
+
+// The operator's metadata before its values: kinds, columns, layout, where it came from.
+SeriesOperator operator_shell(const TransportOperator& t, const World& world,
+                              const SeriesOptions& o) {
+  SeriesOperator q;
+  q.output = o.output;
+  q.basis = o.basis;
+  q.precision = o.precision;
+  q.columns = series_columns(world, o.basis);
+  if (q.columns.empty())
+    throw InputError("the scene has no emitting object: nothing to precompute");
+  q.layout = t.layout();
+  q.scene_file = world.scene().file;
+  q.scene_hash = world.scene().hash;
+  q.overrides = world.overrides();
+  q.gather = o.gather;
+  if (o.output == SeriesOutput::kView) {
+    q.width = world.camera().width;
+    q.height = world.camera().height;
+  }
+  return q;
+}
+
+void fill_report(SeriesReport& rep, const SeriesOperator& q, const TransportOperator& t,
+                 const Terms& terms, const SeriesOptions& o, double rho, const RowPieces& rows) {
+  rep.order = terms.order;
+  rep.max_albedo = t.max_albedo();
+  rep.apriori_bound = rep.max_albedo < 1.0
+                          ? std::pow(rep.max_albedo, terms.order + 1) / (1.0 - rep.max_albedo)
+                          : INFINITY;
+  rep.aposteriori_estimate = terms.aposteriori;
+  rep.spectral_radius = terms.spectral_radius;
+  rep.term_norms = terms.norms;
+  rep.acceleration = o.acceleration;
+  rep.chebyshev_radius = o.acceleration == SeriesAcceleration::kChebyshev ? rho : 0.0;
+  rep.residual_bound = terms.residual_bound;
+  rep.dropped_energy = rows.dropped();
+  rep.dropped_relative = rows.total() > 0.0 ? rows.dropped() / rows.total() : 0.0;
+  rep.nnz = q.nnz();
+  rep.bytes = q.bytes();
+}
+
+}  // namespace
+
+std::vector<SeriesColumn> series_columns(const World& world, SeriesBasis basis) {
+  const Scene& scene = world.scene();
+  const PatchSet& patches = world.patches();
+  std::vector<SeriesColumn> columns;
+  if (basis == SeriesBasis::kObject) {
+    for (const auto& o : scene.objects)
+      if (o.is_emitter) columns.push_back({o.name, -1, o.emission});
+    return columns;
+  }
+  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+    if (patches[p].emitter)
+      columns.push_back({scene.objects[patches[p].object].name, p, patches[p].emission});
+  return columns;
+}
+
+SeriesOperator precompute_series(const TransportOperator& t, const World& world,
+                                 const SeriesOptions& o, const Gather* given_gather) {
+  const Stopwatch watch;
+  const bool view = o.output == SeriesOutput::kView;
+  SeriesOperator q = operator_shell(t, world, o);
+  const auto cols = static_cast<std::int64_t>(q.columns.size());
+  std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);
+  auto unknown = [&](PatchId p) { return permuted ? permuted->permutation().position[p] : p; };
+  const std::vector<std::vector<PatchId>> lit = lit_patches(q.columns, world);
+
+  Field s = Field::Zero(t.size(), 3);
+  for (const auto& list : lit)
+    for (PatchId p : list) s.row(p).setOnes();
+  const bool chebyshev = o.acceleration == SeriesAcceleration::kChebyshev;
+  double rho = o.chebyshev_radius;
+  const Terms terms = chebyshev ? choose_chebyshev_order(t, s, o, &rho) : choose_order(t, s, o);
+
+  std::unique_ptr<Gather> own_gather;
+  const Gather* gather = given_gather;
+  if (view && !gather) {
+    own_gather = std::make_unique<Gather>(build_gather(world, t.layout(), o.gather));
+    gather = own_gather.get();
+  }
+  if (view) {  // a given gather may be of another camera than the world's
+    q.width = gather->width;
+    q.height = gather->height;
+    q.report.gather_seconds = gather->seconds;
+  }
+  const std::int64_t rows = view ? static_cast<std::int64_t>(q.width) * q.height : t.size();
+  const std::vector<double>* flux = view ? nullptr : &t.flux_weight();
+  RowPieces pieces(rows);
+  const int batch = std::max(1, o.column_batch);
+  Progress progress("series precompute", (cols + batch - 1) / batch * (terms.order + 1),
+                    o.progress);
+  for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
+    const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
+    FieldBlock term = FieldBlock::Zero(t.size(), 3 * width);
+    for (int c = 0; c < width; ++c)
+      for (PatchId p : lit[c0 + c]) term.block(unknown(p), 3 * c, 1, 3).setOnes();
+    progress.advance();
+    // In the products' numbering; back in T's before the gather and the rows.
+    FieldBlock acc =
+        permuted ? permuted->to_original(block_polynomial(*permuted, std::move(term), terms.order,
+                                                          chebyshev, rho, progress))
+                 : block_polynomial(t, std::move(term), terms.order, chebyshev, rho, progress);
+    // The rows: the unknowns themselves, or the pixels through the gather.
+    FieldBlock out;
+    if (view) {
+      out.resize(rows, 3 * width);
+      gather->g.multiply(acc.data(), acc.cols(), out.data());
+    } else {
+      out.swap(acc);
+    }
+    pieces.add(out, c0, width, q.columns, drop_thresholds(out, width, o.drop, flux), flux);
+  }
+  progress.finish();
+  pieces.assemble(q);
+  fill_report(q.report, q, t, terms, o, rho, pieces);
+  q.report.seconds = watch.seconds();
+  return q;
+}
+
+}  // namespace polyrad
