@@ -7,7 +7,8 @@ install(TARGETS polyrad polyrad_warnings polyrad_oiio EXPORT polyradTargets
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(TARGETS polyrad_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-install(DIRECTORY include/polyrad DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+# Not the relighting service's headers: its library (src/serve) is not installed.
+install(DIRECTORY include/polyrad DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} PATTERN serve EXCLUDE)
 install(EXPORT polyradTargets NAMESPACE polyrad::
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/polyrad)
 configure_package_config_file(cmake/polyradConfig.cmake.in

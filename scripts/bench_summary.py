@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """Summarises the Google Benchmark JSON that scripts/bench.sh writes into a markdown report.
 
-    scripts/bench_summary.py out/bench        # reads transport.json, series.json and
-                                              # form_factors.json; prints the report and
-                                              # writes out/bench/summary.md
+    scripts/bench_summary.py out/bench        # reads transport.json, series.json,
+                                              # form_factors.json and serve.json; prints the
+                                              # report and writes out/bench/summary.md
 
 Figures are medians of iterations timed one by one (the *median_ms* and *_per_second counters)
 rather than benchmark's means, which a burst of load from elsewhere inflates. Each target
@@ -26,6 +26,9 @@ MEMORY_LIMIT = 2.0      # glossy operator memory / classic system memory, at mos
 SWEEP_LIMIT = 2.0       # glossy sweep time / classic sweep time, at most
 BANDWIDTH_LIMIT = 0.6   # product bytes/s / triad bytes/s, at least, beyond cache
 SPEEDUP_LIMIT = 1000.0  # iterative solve + gather time / product time, at least
+OVERHEAD_LIMIT_MS = 2.0  # relight request latency - product - PNG encoding, at most
+IMAGES_PER_SECOND_LIMIT = 30.0  # images a second served to 4 clients, at least
+RSS_GROWTH_LIMIT_MIB = 4.0  # resident memory growth over 9,000 requests ("flat"), at most
 
 
 def load(path):
@@ -66,6 +69,15 @@ def runs(report, name):
         if n == name:
             out.append((args, e))
     return out
+
+
+def aggregates(report, name, which="median"):
+    """The aggregate rows (median, mean, ...) of a benchmark run with repetitions."""
+    if report is None:
+        return []
+    return [(params(e)[1], e) for e in report.get("benchmarks", [])
+            if e.get("run_type") == "aggregate" and e.get("aggregate_name") == which
+            and params(e)[0] == name]
 
 
 def failed(e):
@@ -328,18 +340,84 @@ def form_factor_section(rep, verdicts):
     return out
 
 
+def serve_section(rep, verdicts):
+    out = ["## The relighting server (`serve_bench`)", ""]
+    if rep is None:
+        return out + ["(no serve.json)", ""]
+    rows = []
+    trip = next((e["latency_median_ms"] for a, e in runs(rep, "round_trip") if not failed(e)), None)
+    for a, e in aggregates(rep, "request") or runs(rep, "request"):
+        if failed(e):
+            continue
+        over = e["overhead_ms"]
+        v = verdict(over <= OVERHEAD_LIMIT_MS, "%.2f ms <= %.0f ms" % (over, OVERHEAD_LIMIT_MS) if over <= OVERHEAD_LIMIT_MS
+                    else "%.2f ms > %.0f ms" % (over, OVERHEAD_LIMIT_MS))
+        verdicts.append(("relight request latency over product + PNG", v))
+        rows.append([ms(e["latency_median_ms"]), ms(e["product_median_ms"]), ms(e["encode_median_ms"]),
+                     ms(e["server_median_ms"]), "**%s**" % ms(over), ms(e["outside_server_ms"]),
+                     ms(trip) if trip is not None else "-", v])
+    out.append("One client, keep-alive, POST /api/relight -> PNG at 256^2 on the demo's view operator; "
+               "medians over seven runs of each run's medians. The product and encoding times are the "
+               "server's own (its response headers); in the server = the whole request there, parsing to "
+               "encoding; overhead = latency - product - encoding and outside the server = latency - in "
+               "the server, each request's (the product's time has a long tail under load, so a "
+               "difference of medians would be no request's); GET /api/operator = the HTTP exchange "
+               "alone. "
+               "Target: latency - product - encoding <= %.0f ms." % OVERHEAD_LIMIT_MS)
+    out.append("")
+    out.append(table(["latency", "product", "PNG encoding", "in the server", "overhead",
+                      "outside the server", "GET /api/operator", "target <= 2 ms"], rows))
+    out.append("")
+    trows = []
+    for a, e in sorted(runs(rep, "throughput"), key=lambda x: x[0]["clients"]):
+        if failed(e):
+            continue
+        rate = e["images_per_second"]
+        v = "-"
+        if a["clients"] == 4:
+            v = verdict(rate >= IMAGES_PER_SECOND_LIMIT, "%.0f >= %.0f" % (rate, IMAGES_PER_SECOND_LIMIT)
+                        if rate >= IMAGES_PER_SECOND_LIMIT else "%.0f < %.0f" % (rate, IMAGES_PER_SECOND_LIMIT))
+            verdicts.append(("images a second, 4 clients", v))
+        trows.append([a["clients"], "**%.0f**" % rate, "%.0f" % e["images_per_second_serialised"],
+                      "%.2f" % e["concurrent_over_serialised"], v])
+    out.append("Clients asking at once, each on its own connection: medians of 7 rounds of 100 requests "
+               "a client, with concurrent products (the server's default) and one at a time, the two "
+               "servers asked alternately. Target: >= %.0f images/s with 4 clients." % IMAGES_PER_SECOND_LIMIT)
+    out.append("")
+    out.append(table(["clients", "images/s", "images/s, products one at a time", "ratio", "target >= 30"], trows))
+    out.append("")
+    mrows = []
+    for a, e in runs(rep, "memory"):
+        if failed(e):
+            continue
+        growth = e["rss_growth_mib"]
+        v = verdict(growth <= RSS_GROWTH_LIMIT_MIB, "%.1f MiB <= %.0f MiB" % (growth, RSS_GROWTH_LIMIT_MIB)
+                    if growth <= RSS_GROWTH_LIMIT_MIB else "%.1f MiB > %.0f MiB" % (growth, RSS_GROWTH_LIMIT_MIB))
+        verdicts.append(("resident memory over 10,000 requests", v))
+        mrows.append(["%.1f MiB" % e["rss_after_1000_mib"], "%.1f MiB" % e["rss_after_5500_mib"],
+                      "%.1f MiB" % e["rss_after_10000_mib"], "**%.1f MiB**" % growth, v])
+    out.append("10,000 requests from 4 clients; the resident memory of the process (server and clients). "
+               "Target: flat (growth after the first 1,000 at most %.0f MiB)." % RSS_GROWTH_LIMIT_MIB)
+    out.append("")
+    out.append(table(["after 1,000", "after 5,500", "after 10,000", "growth", "target: flat"], mrows))
+    out.append("")
+    return out
+
+
 def main():
     directory = sys.argv[1] if len(sys.argv) > 1 else "out/bench"
     transport = load(os.path.join(directory, "transport.json"))
     series = load(os.path.join(directory, "series.json"))
     form_factors = load(os.path.join(directory, "form_factors.json"))
-    if transport is None and series is None and form_factors is None:
-        sys.exit("bench_summary: no transport.json, series.json or form_factors.json in " + directory)
+    serve = load(os.path.join(directory, "serve.json"))
+    if transport is None and series is None and form_factors is None and serve is None:
+        sys.exit("bench_summary: no transport.json, series.json, form_factors.json or serve.json in " + directory)
     verdicts = []
-    lines = ["# polyrad benchmarks", "", machine([transport, series, form_factors]), ""]
+    lines = ["# polyrad benchmarks", "", machine([transport, series, form_factors, serve]), ""]
     lines += transport_section(transport, verdicts)
     lines += series_section(series, verdicts)
     lines += form_factor_section(form_factors, verdicts)
+    lines += serve_section(serve, verdicts)
     lines += ["## Targets", "", table(["target", "result"], verdicts), ""]
     text = "\n".join(lines)
     print(text)

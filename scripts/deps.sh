@@ -7,6 +7,8 @@ packages=(
   libeigen3-dev libembree-dev libopenimageio-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib
+  libcpp-httplib-dev pkg-config
+  chromium chromium-driver python3-selenium
   clang-14 libclang-rt-14-dev libomp-14-dev
 )
 

@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
   add_relight_command(app, exit_code);
   add_convergence_command(app, exit_code);
   add_sweep_command(app, exit_code);
+  add_serve_command(app, exit_code);
 
   try {
     app.parse(argc, argv);

@@ -15,4 +15,13 @@ double median(std::vector<double> v) {
   return 0.5 * (*std::max_element(v.begin(), v.begin() + mid) + upper);
 }
 
+RepeatTimes repeat_times(std::vector<double> seconds) {
+  RepeatTimes t;
+  t.repeats = static_cast<int>(seconds.size());
+  t.median = median(seconds);
+  t.min = seconds.empty() ? t.median : *std::min_element(seconds.begin(), seconds.end());
+  t.seconds = std::move(seconds);
+  return t;
+}
+
 }  // namespace polyrad

@@ -1,19 +1,21 @@
 // Relighting a stored operator: the workflow behind `polyrad relight` and the page of
-// `polyrad serve`. A Relighter holds the operator (read by mmap and checked against its scene)
-// and, for solution rows, the world and the gather that turn a relit solution into an image;
-// each new set of lights then costs one product.
+// `polyrad serve`. A Relighter holds the operator (read by mmap and checked against its scene,
+// io/prt_file.h) and, for solution rows, the world and the gathers that turn a relit solution
+// into an image: the scene camera's, and the last few orbits of it (`Orbit`), so that a relight
+// with an unchanged camera costs the product and one gather product.
 //
-//   Relighter r("out/scene.prt");
-//   std::vector<float> e = r.emission({{"light", Rgb(34, 24, 8)}});
-//   Image img = r.image(e);
-//
+//   Relighter r("out/scene.prt");                 // refuses a stale or damaged file (InputError)
+//   Relit a = r.relight({{"light", Rgb(34, 24, 8)}});
 //   RelightResult res = relight("out/scene.prt", {.emission = {{"light", Rgb(0, 0, 20)}}});
 //
-// Cost: construction reads the file (and, for solution rows, meshes the scene and builds the
-// gather); image() is one product over Q (plus, for solution rows, one gather product).
-// Thread-safe: image() and emission() may run on any number of threads at once.
+// Cost: construction maps the file and reads its checksum once (and, for solution rows, meshes
+// the scene and builds the scene camera's gather); a relight is one product (nnz(Q) x 16 bytes
+// read), plus for solution rows one gather product, and a gather build (pixels x rays) each time
+// the camera moves to an orbit not in the cache. Thread-safe: relight() may run on any number of
+// threads at once.
 #pragma once
 
+#include <cstddef>
 #include <map>
 #include <memory>
 #include <string>
@@ -26,34 +28,57 @@
 
 namespace polyrad {
 
+struct Light {
+  std::string name;  // the emitting object's name in the scene
+  Rgb emission;      // its scene emission
+};
+
+// The camera turned about its look-at point: yaw about the camera's up axis, then pitch towards
+// it, both in degrees. {0, 0} is the scene camera. Only solution operators can orbit.
+struct Orbit {
+  double yaw_degrees = 0.0;
+  double pitch_degrees = 0.0;
+  bool operator==(const Orbit&) const = default;
+};
+
+// The camera `orbit` makes of `camera`; pitch is held 5 degrees short of the up axis either way.
+Camera orbit_camera(const Camera& camera, const Orbit& orbit);
+
+struct Relit {
+  Image image;                   // linear radiance, as `polyrad relight` writes it to .pfm
+  double product_seconds = 0.0;  // Q e
+  double gather_seconds = 0.0;   // solution operators: the gather product, plus a build if the
+                                 // orbit was not cached
+  bool gather_built = false;     // this call built a gather
+};
+
 class Relighter {
  public:
-  // scene_path: the scene when it moved since the precompute ("" reads the recorded one).
-  explicit Relighter(const std::string& prt_path, const std::string& scene_path = {});
+  // scene_path empty: the scene file named in the operator. Throws InputError for a missing,
+  // damaged or stale operator, or a scene that no longer meshes as it did.
+  explicit Relighter(const std::string& prt_path, const std::string& scene_path = "");
+  ~Relighter();
+  Relighter(const Relighter&) = delete;
+  Relighter& operator=(const Relighter&) = delete;
 
-  const SeriesOperator& op() const { return q_; }
-  int width() const;  // of the images image() returns
+  const std::vector<Light>& lights() const { return lights_; }
+  int width() const;
   int height() const;
-  // The lights by name in column order, each with the scene's emission.
-  std::vector<std::pair<std::string, Rgb>> lights() const;
-  // The emission of each column: the scene's, with the named lights set. InputError for a name
-  // that is not a light, or a value that is negative or not finite.
-  std::vector<float> emission(const std::map<std::string, Rgb>& lights) const;
-  // The image for those emissions: one product, and for solution rows the gather (the scene
-  // camera's unless another is given). product_seconds, when given, receives the product's time.
-  Image image(const std::vector<float>& e, const Gather* gather = nullptr,
-              double* product_seconds = nullptr) const;
-  // Solution rows only: the gather of another camera (InputError for view rows).
-  Gather camera_gather(const Camera& camera) const;
-  // Solution rows: the world the operator reads (null for view rows).
-  const std::shared_ptr<const World>& world() const { return world_; }
+  SeriesOutput output() const { return q_.output; }
+  bool can_orbit() const { return q_.output == SeriesOutput::kSolution; }
+  const SeriesOperator& op() const { return q_; }
   double load_seconds() const { return load_seconds_; }
-  double gather_seconds() const { return gather_ ? gather_->seconds : 0.0; }
+
+  // The image for these emissions (lights not named keep their scene emission). Throws
+  // InputError for an unknown light, a negative or non-finite emission, or an orbit given to a
+  // view operator; NumericalError if the image is not finite.
+  Relit relight(const std::map<std::string, Rgb>& emission, const Orbit& orbit = {}) const;
 
  private:
+  struct Views;  // solution operators: the world and the gathers of its orbits
   SeriesOperator q_;
-  std::shared_ptr<const World> world_;
-  std::unique_ptr<Gather> gather_;  // solution rows: the scene camera's
+  std::vector<Light> lights_;
+  std::unique_ptr<Views> views_;
   double load_seconds_ = 0.0;
 };
 

@@ -23,16 +23,15 @@ struct RepeatTimes {
   std::vector<double> seconds;  // each repeat, in order
 };
 
+// The summary of times measured elsewhere (at least one).
+RepeatTimes repeat_times(std::vector<double> seconds);
+
 // Runs f `repeats` times (at least once), timing each.
 template <typename F>
 RepeatTimes time_repeats(int repeats, F&& f) {
-  RepeatTimes t;
-  for (int r = 0; r < (repeats > 0 ? repeats : 1); ++r) t.seconds.push_back(time_seconds(f));
-  t.repeats = static_cast<int>(t.seconds.size());
-  t.median = median(t.seconds);
-  t.min = t.seconds[0];
-  for (double s : t.seconds) t.min = s < t.min ? s : t.min;
-  return t;
+  std::vector<double> seconds;
+  for (int r = 0; r < (repeats > 0 ? repeats : 1); ++r) seconds.push_back(time_seconds(f));
+  return repeat_times(std::move(seconds));
 }
 
 }  // namespace polyrad
