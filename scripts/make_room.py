@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """Writes scenes/room.json and its OBJ meshes under scenes/meshes/room/.
 
-A living room of 6 m x 2.7 m x 4.5 m in millimetres (x east, y up, z north), closed, with a
-glossy wooden floor, a framed mirror on the west wall, a window-like emitter in the north wall,
-three ceiling panels and two glowing lamp shades, and furniture made of boxes and prisms.
+A living room of 6 m (x) by 4.5 m (z), 2.7 m high (y), in millimetres, closed, with a glossy
+wooden floor, a framed mirror on the wall x = 0, a window-like emitter in the wall z = 4500,
+three ceiling panels and two glowing lamp shades, and furniture made of boxes and prisms. No
+two solids overlap (coincident faces are left to neither renderer's tie-breaking): main()
+checks the boxes and the prisms' bounding boxes. The walls' names: west x = 0, east x = 6000,
+south z = 0, north z = 4500.
 Every face is written counter-clockwise seen from its front (the side light comes from): the
 room's shell faces inwards, furniture faces outwards. Faces that would lie against the floor or
 a wall are left out (nothing sees them). The output is deterministic: the same bytes each run.
@@ -48,8 +51,12 @@ AXES = {"-x": (-1, 0, 0), "+x": (1, 0, 0), "-y": (0, -1, 0), "+y": (0, 1, 0),
         "-z": (0, 0, -1), "+z": (0, 0, 1)}
 
 
+SOLIDS = []  # (x0, x1, y0, y1, z0, z1) of every box and prism made, for the overlap check
+
+
 def box(x0, x1, y0, y1, z0, z1, omit=()):
     """The faces of an axis-aligned box, normals outwards; `omit` names faces left out."""
+    SOLIDS.append((x0, x1, y0, y1, z0, z1))
     faces = {
         "-x": [(x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)],
         "+x": [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
@@ -65,6 +72,8 @@ def box(x0, x1, y0, y1, z0, z1, omit=()):
 def frustum(cx, cz, y0, y1, r0, r1, sides, phase=0.0, omit=()):
     """A vertical prism / frustum with `sides` sides: radius r0 at y0, r1 at y1; normals
     outwards. `omit` may hold "bottom" and "top"."""
+    r = max(r0, r1)
+    SOLIDS.append((cx - r, cx + r, y0, y1, cz - r, cz + r))
     ang = [phase + 2 * math.pi * k / sides for k in range(sides)]
     lo = [(cx + r0 * math.cos(a), y0, cz + r0 * math.sin(a)) for a in ang]
     hi = [(cx + r1 * math.cos(a), y1, cz + r1 * math.sin(a)) for a in ang]
@@ -156,15 +165,16 @@ def bookcase(x0, x1, z1, depth, height, board=25, shelves=5):
     return faces, [80 + k * step for k in range(shelves)]
 
 
-def books(x0, x1, z1, shelf_ys, seed_offset, colour_index, depth=240):
-    """Rows of books on the shelves: a deterministic pattern; keeps every third book of the
-    given colour index (0, 1, 2) so three objects share the shelves."""
+def books(x0, x1, z1, shelf_ys, colour_index, depth=240):
+    """Rows of books on the shelves in one deterministic layout; keeps every third book, those
+    of the given colour index (0, 1, 2), so that three objects share the shelves without
+    overlapping."""
     faces = []
     k = 0
     for row, y in enumerate(shelf_ys):
         x = x0 + 40
         while True:
-            w = 25 + ((k * 37 + row * 11 + seed_offset) % 5) * 9
+            w = 25 + ((k * 37 + row * 11) % 5) * 9
             h = 170 + ((k * 53 + row * 7) % 6) * 22
             if x + w > x1 - 40:
                 break
@@ -274,9 +284,9 @@ def build():
     bx0, bx1 = 300.0, 1400.0
     bc, shelf_ys = bookcase(bx0, bx1, D, 350.0, 2000.0)
     mesh("bookcase", "walnut", bc)
-    mesh("books_red", "book_red", books(bx0, bx1, D, shelf_ys, 1, 0))
-    mesh("books_blue", "book_blue", books(bx0, bx1, D, shelf_ys, 2, 1))
-    mesh("books_ochre", "book_ochre", books(bx0, bx1, D, shelf_ys, 3, 2))
+    mesh("books_red", "book_red", books(bx0, bx1, D, shelf_ys, 0))
+    mesh("books_blue", "book_blue", books(bx0, bx1, D, shelf_ys, 1))
+    mesh("books_ochre", "book_ochre", books(bx0, bx1, D, shelf_ys, 2))
 
     # Sofa against the south wall, cushions, coffee table and rug in front of it.
     sx0, sx1 = 1300.0, 3500.0
@@ -322,7 +332,7 @@ def build():
 
     picture("picture_sofa", "canvas_blue", "z0", 1900.0, 2900.0, 1250.0, 1900.0)
     picture("picture_north", "canvas_ochre", "z1", 4400.0, 5000.0, 1300.0, 2000.0)
-    picture("picture_east_1", "canvas_red", "x1", 3300.0, 3900.0, 1250.0, 1750.0)
+    picture("picture_east_1", "canvas_red", "x1", 3000.0, 3550.0, 1250.0, 1750.0)
     picture("picture_east_2", "canvas_green", "x1", 1900.0, 2500.0, 1250.0, 1750.0)
 
     # The door in the south wall's east end, 10 mm proud, with its frame.
@@ -399,9 +409,19 @@ def write_obj(path, name, faces):
         out.write("\n".join(lines) + "\n")
 
 
+def check_overlaps():
+    eps = 1e-6
+    for i, a in enumerate(SOLIDS):
+        for b in SOLIDS[i + 1:]:
+            if all(min(a[2 * k + 1], b[2 * k + 1]) - max(a[2 * k], b[2 * k]) > eps
+                   for k in range(3)):
+                raise SystemExit("make_room.py: solids overlap: %s and %s" % (a, b))
+
+
 def main():
     os.makedirs(MESH_DIR, exist_ok=True)
     objs = build()
+    check_overlaps()
     used = set()
     lines = []
     for name, material, geom, extra in objs:
