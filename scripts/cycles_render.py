@@ -1,19 +1,22 @@
 """Render a polyrad scene (JSON + OBJ) with Blender's Cycles on the CPU, to a linear EXR.
 
-Run inside Blender's Python:
+Run inside Blender's Python (docs/cycles-study.md):
 
     blender -b --factory-startup -P scripts/cycles_render.py -- SCENE.json -o OUT.exr \
-        [--spp N] [--threads N] [--seed S] [--phong approx|refuse] [--blend FILE.blend]
+        [--spp N] [--threads N] [--seed S] [--phong refuse|beckmann] [--scale S] \
+        [--light-threshold T] [--blend FILE.blend]
 
 What it builds, so that Cycles computes what polyrad's path tracer computes:
 - geometry: every `polygon` and every OBJ face with the same vertices, in the same order (the
-  front is the counter-clockwise side in both programs), flat shaded;
+  front is the counter-clockwise side in both programs), flat shaded, all coordinates scaled
+  so that the longest emitting edge is 1e-3 long (radiance does not depend on the units;
+  Cycles 3.4's mesh-light sampling does: see auto_scale);
 - materials: diffuse -> Diffuse BSDF (Lambert); mirror -> Glossy BSDF, Sharp, colour =
   reflectance; glossy -> Diffuse BSDF(diffuse) + Glossy BSDF(GGX, colour = specular,
   roughness = sqrt(alpha), because Blender squares its roughness into the GGX alpha; no
-  Fresnel, as polyrad's constant-Fresnel lobe); phong -> no Cycles closure without OSL: the
-  lobe is approximated by GGX whose peak at normal incidence matches, alpha = 1 / sqrt(2 (n + 2))
-  (or refused with --phong refuse);
+  Fresnel, as polyrad's constant-Fresnel lobe); phong -> refused, as Cycles has no Phong
+  closure without OSL, or with --phong beckmann approximated by Beckmann whose peak and width
+  at normal incidence match, alpha = 1 / sqrt(2 (n + 2));
 - one-sided surfaces: the shader is mixed, by Geometry > Backfacing, with a black diffuse BSDF:
   the back reflects and emits nothing and still blocks light, as in polyrad;
 - emission: Emission shader of strength 1 and colour = the object's radiance, added to its
@@ -47,8 +50,15 @@ def parse_args():
     p.add_argument("--spp", type=int, default=64)
     p.add_argument("--threads", type=int, default=0, help="0: all")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--phong", choices=("approx", "refuse"), default="approx")
+    p.add_argument("--phong", choices=("refuse", "beckmann"), default="refuse",
+                   help="Phong has no Cycles closure: refuse the scene (default) or "
+                        "approximate the lobe by Beckmann of the same peak")
     p.add_argument("--bounces", type=int, default=64)
+    p.add_argument("--light-threshold", type=float, default=None,
+                   help="Cycles' light sampling threshold (default: Blender's, 0.01)")
+    p.add_argument("--scale", type=float, default=0.0,
+                   help="multiply every coordinate by this (default: 1e-3 / the longest edge "
+                        "of an emitting face; see auto_scale)")
     p.add_argument("--blend", help="also save the built scene as a .blend file")
     return p.parse_args(argv)
 
@@ -127,22 +137,28 @@ def new_material(name, spec, emission, phong_mode):
         front = diffuse(spec["reflectance"])
     elif t == "mirror":
         front = glossy(spec["reflectance"], "SHARP", 0.0)
-    elif t in ("glossy", "phong"):
-        if t == "glossy":
-            alpha = float(spec["roughness"])
-        else:
-            if phong_mode == "refuse":
-                fail("material %r: Cycles has no Phong lobe (without OSL); "
-                     "--phong approx approximates it by GGX" % name)
-            alpha = 1.0 / math.sqrt(2.0 * (float(spec["exponent"]) + 2.0))
-            print("cycles_render: material %r: Phong n = %g approximated by GGX alpha %.4f"
-                  % (name, spec["exponent"], alpha))
+    elif t == "glossy":
         # polyrad: below alpha 1e-3 the lobe is the perfect mirror.
+        alpha = float(spec["roughness"])
         lobe = glossy(spec["specular"], "SHARP" if alpha < 1e-3 else "GGX", alpha)
-        d = spec.get("diffuse", [0.0, 0.0, 0.0])
-        front = add(diffuse(d), lobe) if max(d) > 0 else lobe
+    elif t == "phong":
+        if phong_mode == "refuse":
+            fail("material %r: Cycles 3.4 has no Phong lobe (without OSL); --phong beckmann "
+                 "approximates it" % name)
+        # Beckmann's Gaussian core, exp(-tan^2 / alpha^2), matches the Phong lobe's cos^n
+        # about the mirror direction at normal incidence (peak and width) when
+        # alpha^2 = 1 / (2 (n + 2)). Away from it the two differ: a microfacet lobe keeps its
+        # albedo near 1 at grazing angles, where the modified Phong lobe's falls with
+        # cos(theta_i) (docs/cycles-study.md has the figures).
+        alpha = 1.0 / math.sqrt(2.0 * (float(spec["exponent"]) + 2.0))
+        print("cycles_render: material %r: Phong n = %g approximated by Beckmann alpha %.4f"
+              % (name, spec["exponent"], alpha))
+        lobe = glossy(spec["specular"], "BECKMANN", alpha)
     else:
         fail("material %r: unknown type %r" % (name, t))
+    if t in ("glossy", "phong"):
+        d = spec.get("diffuse", [0.0, 0.0, 0.0])
+        front = add(diffuse(d), lobe) if max(d) > 0 else lobe
 
     if emission is not None:
         e = nt.nodes.new("ShaderNodeEmission")
@@ -167,6 +183,30 @@ def new_material(name, spec, emission, phong_mode):
 
 # ---- scene -------------------------------------------------------------------------------
 
+def auto_scale(objects, geometry):
+    """A scale for the coordinates under which Cycles samples its mesh lights without bias.
+
+    Cycles 3.4 samples an emitting triangle by solid angle (Arvo) when longest_edge^2 >
+    (dist / |N|)^2, dist the distance to the triangle's plane and N its unnormalised normal:
+    a length^2 against a 1 / length^2, so the choice depends on the scene's units. The solid
+    angle it then computes, alpha + beta + gamma - pi with an approximate acos, loses its
+    precision when the triangle subtends little (small and far, or seen at grazing angles from
+    near its plane). Millimetre scenes take that branch almost everywhere: the Cornell box's
+    walls came out 0.3 to 0.6 percent dark near the ceiling, and 16 percent dark with its lamp
+    cut into 1 cm quads. Radiance does not depend on the units; with every emitting edge
+    1e-3 long, the comparison picks area sampling, which is exact, everywhere but within 1e-3
+    of a light's size from its plane.
+    """
+    longest = 0.0
+    for obj, (verts, faces) in zip(objects, geometry):
+        if "emission" not in obj:
+            continue
+        for f in faces:
+            for a, b in zip(f, f[1:] + f[:1]):
+                longest = max(longest, math.dist(verts[a], verts[b]))
+    return 1e-3 / longest if longest > 0 else 1.0
+
+
 def build(args):
     with open(args.scene) as f:
         sc = json.load(f)
@@ -174,15 +214,21 @@ def build(args):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
 
+    # Read everything first: the scale depends on the emitters' edges.
+    geometry = []
+    for obj in sc["objects"]:
+        if obj["material"] not in sc["materials"]:
+            fail("object %r: unknown material %r" % (obj["name"], obj["material"]))
+        geometry.append(object_geometry(obj, scene_dir))
+    scale = args.scale if args.scale else auto_scale(sc["objects"], geometry)
+
     shared = {}
     lo = Vector((math.inf,) * 3)
     hi = Vector((-math.inf,) * 3)
-    for obj in sc["objects"]:
+    for obj, (verts, faces) in zip(sc["objects"], geometry):
         name = obj["name"]
         mname = obj["material"]
-        if mname not in sc["materials"]:
-            fail("object %r: unknown material %r" % (name, mname))
-        verts, faces = object_geometry(obj, scene_dir)
+        verts = [tuple(scale * c for c in v) for v in verts]
         mesh = bpy.data.meshes.new(name)
         mesh.from_pydata(verts, [], faces)
         mesh.update()
@@ -206,8 +252,8 @@ def build(args):
     # Camera: Blender's camera looks along its -Z with +Y up and +X right; polyrad's image
     # right is forward x up, the same right-handed frame.
     c = sc["camera"]
-    pos = Vector(c["position"])
-    fwd = (Vector(c["look_at"]) - pos).normalized()
+    pos = scale * Vector(c["position"])
+    fwd = (scale * Vector(c["look_at"]) - pos).normalized()
     up = Vector(c.get("up", [0, 1, 0]))
     right = fwd.cross(up).normalized()
     true_up = right.cross(fwd)
@@ -273,24 +319,26 @@ def build(args):
     cy.blur_glossy = 0.0
     cy.caustics_reflective = True
     cy.caustics_refractive = True
+    if args.light_threshold is not None:
+        cy.light_sampling_threshold = args.light_threshold
     if args.blend:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend))
-    return scene, len(sc["objects"])
+    return scene, len(sc["objects"]), scale
 
 
 def main():
     args = parse_args()
-    scene, nobj = build(args)
+    scene, nobj, scale = build(args)
     t_built = time.time()
     scene.render.filepath = os.path.abspath(args.output)
     scene.render.use_file_extension = False
     bpy.ops.render.render(write_still=True)
     t_done = time.time()
-    print("cycles: %s: %d objects, %dx%d, %d spp, threads %s: scene %.2f s, render %.2f s, "
-          "script total %.2f s; wrote %s"
-          % (args.scene, nobj, scene.render.resolution_x, scene.render.resolution_y, args.spp,
-             scene.render.threads, t_built - T_START, t_done - t_built, t_done - T_START,
-             args.output))
+    print("cycles: %s: %d objects, scale %.6g, %dx%d, %d spp, threads %s: scene %.2f s, "
+          "render %.2f s, script total %.2f s; wrote %s"
+          % (args.scene, nobj, scale, scene.render.resolution_x, scene.render.resolution_y,
+             args.spp, scene.render.threads, t_built - T_START, t_done - t_built,
+             t_done - T_START, args.output))
 
 
 main()
