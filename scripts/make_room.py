@@ -3,10 +3,11 @@
 
 A living room of 6 m (x) by 4.5 m (z), 2.7 m high (y), in millimetres, closed, with a glossy
 wooden floor, a framed mirror on the wall x = 0, a window-like emitter in the wall z = 4500,
-three ceiling panels and two glowing lamp shades, and furniture made of boxes and prisms. No
-two solids overlap (coincident faces are left to neither renderer's tie-breaking): main()
-checks the boxes and the prisms' bounding boxes. The walls' names: west x = 0, east x = 6000,
-south z = 0, north z = 4500.
+three ceiling panels and two glowing lamp shades, and furniture made of boxes and prisms. The
+walls' names: west x = 0, east x = 6000, south z = 0, north z = 4500. No two solids overlap,
+so that no coincident faces are left to a renderer's tie-breaking: main() checks the boxes and
+the prisms' bounding boxes.
+
 Every face is written counter-clockwise seen from its front (the side light comes from): the
 room's shell faces inwards, furniture faces outwards. Faces that would lie against the floor or
 a wall are left out (nothing sees them). The output is deterministic: the same bytes each run.
@@ -18,7 +19,8 @@ import math
 import os
 import sys
 
-ROOT = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), "..")
+ROOT = os.path.normpath(sys.argv[1] if len(sys.argv) > 1
+                        else os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 SCENE = os.path.join(ROOT, "scenes", "room.json")
 MESH_DIR = os.path.join(ROOT, "scenes", "meshes", "room")
 
