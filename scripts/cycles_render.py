@@ -194,8 +194,8 @@ def auto_scale(objects, geometry):
     near its plane). Millimetre scenes take that branch almost everywhere: the Cornell box's
     walls came out 0.3 to 0.6 percent dark near the ceiling, and 16 percent dark with its lamp
     cut into 1 cm quads. Radiance does not depend on the units; with every emitting edge
-    1e-3 long, the comparison picks area sampling, which is exact, everywhere but within 1e-3
-    of a light's size from its plane.
+    1e-3 long, the comparison picks area sampling, which is exact, everywhere but practically
+    in a light's plane.
     """
     longest = 0.0
     for obj, (verts, faces) in zip(objects, geometry):
