@@ -10,6 +10,14 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
     throw InputError(
         "--reorder rcm renumbers T's stored rows; --specular-on-the-fly stores none "
         "(use --reorder none)");
+  if (series.reorder == SeriesReorder::kRcm && system.mesh == MeshKind::kHierarchical)
+    throw InputError(
+        "--reorder rcm renumbers T's stored rows; a hierarchical mesh keeps T "
+        "factored in its trees and links (use --reorder none)");
+  if (series.output == SeriesOutput::kSolution && system.mesh == MeshKind::kHierarchical)
+    throw InputError(
+        "a hierarchical mesh's solution rows are its leaves, which relight cannot "
+        "rebuild from the scene; use --output view (or --mesh uniform)");
 }
 
 PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptions& o) {
@@ -21,7 +29,7 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   rep.overrides = o.overrides;
   Scene scene = load_scene(scene_path, o.scene);
   rep.seconds.push_back({"load", watch.lap()});
-  auto sys = build_system(World::build(std::move(scene), o.overrides), o.system);
+  auto sys = build_system(std::move(scene), o.overrides, o.system);
   SeriesOperator q = precompute_series(sys->transport, *sys->world, o.series);
   rep.system = sys->summary();
   rep.series = q;

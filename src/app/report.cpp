@@ -137,8 +137,46 @@ void write_json(JsonWriter& w, std::string_view key, const ImageComparison& c) {
   w.end_object();
 }
 
+void write_json(JsonWriter& w, std::string_view key, const HierarchySummary& h) {
+  const HierarchyStats& st = h.stats;
+  w.begin_object(key)
+      .value("roots", h.roots)
+      .value("elements", h.elements)
+      .value("leaves", h.leaves)
+      .value("links", h.links)
+      .value("link_entries", h.link_entries)
+      .value("b_ref_estimate", st.b_ref_estimate)
+      .value("b_ref", st.b_ref)
+      .value("root_pairs_facing", st.root_pairs_facing)
+      .value("oracle_rays", st.oracle_rays)
+      .value("form_factor_rays", st.form_factor_rays)
+      .value("exposure_seconds", st.exposure_seconds)
+      .value("guard_max_excess", st.guard_max_excess)
+      .value("guard_leaves", st.guard_leaves)
+      .value("operator_bytes", h.operator_bytes)
+      .value("seconds", st.seconds);
+  w.begin_array("passes");
+  for (const auto& p : st.passes)
+    w.begin_object()
+        .value("candidates", p.candidates)
+        .value("visibility_tests", p.visibility_tests)
+        .value("splits", p.splits)
+        .value("elements", p.elements)
+        .value("leaves", p.leaves)
+        .value("links", p.links)
+        .value("sweeps", p.sweeps)
+        .value("oracle_seconds", p.oracle_seconds)
+        .value("form_factor_seconds", p.form_factor_seconds)
+        .value("solve_seconds", p.solve_seconds)
+        .end_object();
+  w.end_array();
+  w.end_object();
+}
+
 void write_json(JsonWriter& w, std::string_view key, const SystemSummary& s) {
   w.begin_object(key);
+  w.value("mesh", enum_name(s.mesh));
+  if (s.hierarchy) write_json(w, "hierarchy", *s.hierarchy);
   w.value("patches", s.patches);
   w.value("links", s.links);
   w.value("unknowns", s.unknowns);

@@ -53,6 +53,21 @@ void SystemFlags::add(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   app.add_flag("--specular-on-the-fly", on_the_fly,
                "Recompute the specular transfer at every sweep instead of storing it");
+  add_enum_option(app, "--mesh", mesh,
+                  "Uniform patches linked pair by pair, or element trees on them linked at the "
+                  "level the light needs (diffuse transport only)");
+  app.add_option("--link-tolerance", hierarchy.link_tolerance,
+                 "Hierarchical mesh: the error a link may make, as a fraction of what it carries")
+      ->check(CLI::Range(1e-9, 1e9))
+      ->capture_default_str();
+  app.add_option("--min-element-size", hierarchy.min_element_size,
+                 "Hierarchical mesh: no element is split below this edge (default: an eighth of "
+                 "its root patch)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--refine-passes", hierarchy.passes,
+                 "Hierarchical mesh: refinement passes after the first, each after a solve")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   app.add_flag("--allow-unsafe-albedo", unsafe_albedo,
                "UNSAFE: accept materials whose albedo may exceed 1 (to test divergence detection)");
 }
@@ -71,6 +86,8 @@ SystemOptions SystemFlags::system() const {
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
   o.specular_on_the_fly = on_the_fly;
   o.max_memory_bytes = max_memory_gib * (1ull << 30);
+  o.mesh = mesh;
+  o.hierarchy = hierarchy;
   return o;
 }
 

@@ -53,6 +53,8 @@ struct SystemFlags {
   bool on_the_fly = false;
   bool unsafe_albedo = false;
   double max_memory_gib = 0.0;
+  MeshKind mesh = MeshKind::kUniform;
+  HierarchyOptions hierarchy;
   void add(CLI::App& app);
   SceneOptions scene() const;
   SceneOverrides overrides() const;

@@ -60,7 +60,7 @@ int run_render(RenderFlags& f) {
   const RenderResult r = render(f.scene, o);
   if (r.report.system) print_warnings(r.report.system->lobes);
   write_image(r.image, f.output, ImageWriteOptions{f.exposure});
-  if (!f.patches_csv.empty()) write_file_atomic(f.patches_csv, patch_table_csv(*r.world, r.u));
+  if (!f.patches_csv.empty()) write_file_atomic(f.patches_csv, patch_table_csv(*r.system, r.u));
   write_report(f.report, r.report);
   print_summary(r, f.output);
   return kExitOk;

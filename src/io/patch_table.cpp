@@ -5,14 +5,14 @@
 
 namespace polyrad {
 
-std::string patch_table_csv(const World& world, const Field& u) {
+std::string patch_table_csv(const RadiositySystem& sys, const Field& u) {
   std::ostringstream s;
   s.precision(9);
   s << "patch,object,area,cx,cy,cz,nx,ny,nz,r,g,b\n";
-  const PatchSet& patches = world.patches();
+  const PatchSet& patches = sys.unknown_patches();
   for (size_t p = 0; p < patches.size(); ++p) {
     const Patch& q = patches[p];
-    s << p << ',' << world.scene().objects[q.object].name << ',' << q.area << ',' << q.centroid.x()
+    s << p << ',' << sys.scene().objects[q.object].name << ',' << q.area << ',' << q.centroid.x()
       << ',' << q.centroid.y() << ',' << q.centroid.z() << ',' << q.normal.x() << ','
       << q.normal.y() << ',' << q.normal.z() << ',' << u(p, 0) << ',' << u(p, 1) << ',' << u(p, 2)
       << '\n';

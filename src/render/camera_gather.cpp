@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "polyrad/scene/brdf.h"
+#include "polyrad/transport/hierarchy.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
 #include "polyrad/util/timer.h"
@@ -134,6 +135,17 @@ class PixelGatherer {
   }
 
   void add_diffuse(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
+    if (const ElementHierarchy* h =
+            t_.hierarchy.get()) {  // the leaf (or its corners) under the hit
+      thread_local std::vector<std::pair<std::int32_t, double>> weights;
+      weights.clear();
+      h->diffuse_weights(p, u, v, o_.diffuse == DiffuseMode::kSmooth, weights);
+      for (const auto& [leaf, s] : weights)
+        terms.push_back({leaf,
+                         {static_cast<float>(w[0] * s), static_cast<float>(w[1] * s),
+                          static_cast<float>(w[2] * s)}});
+      return;
+    }
     if (o_.diffuse == DiffuseMode::kSmooth)
       corners_.add(p, u, v, w, terms);
     else
@@ -241,7 +253,9 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
                     const GatherOptions& options) {
   const Stopwatch watch;
   const PatchSet& patches = world.patches();
-  CornerAverages corners(patches, t.flux_weight);
+  // A hierarchy's leaves have corner averages of their own; the patches' are then not read.
+  static const PatchSet kNoPatches;
+  const CornerAverages corners(t.hierarchy ? kNoPatches : patches, t.flux_weight);
   const LightSampler& lights = world.lights();
   const RayCaster& caster = world.caster();
   const std::vector<Material>& materials = world.materials();

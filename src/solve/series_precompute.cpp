@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/permuted_transport.h"
 #include "polyrad/transport/reorder.h"
 #include "polyrad/util/half.h"
@@ -172,17 +173,21 @@ std::unique_ptr<PermutedTransport> reordered_transport(const TransportOperator& 
   return permuted;
 }
 
+// The patches of T's B unknowns: the world's, or its hierarchy's leaves.
+const PatchSet& unknown_patches(const TransportOperator& t, const World& world) {
+  return t.layout().hierarchy ? t.layout().hierarchy->leaves() : world.patches();
+}
+
 // Which patches each column lights: its patch, or every patch of its object.
 std::vector<std::vector<PatchId>> lit_patches(const std::vector<SeriesColumn>& columns,
-                                              const World& world) {
-  const PatchSet& patches = world.patches();
+                                              const PatchSet& patches, const Scene& scene) {
   std::vector<std::vector<PatchId>> lit(columns.size());
   for (size_t c = 0; c < columns.size(); ++c) {
     if (columns[c].patch >= 0) {
       lit[c].push_back(columns[c].patch);
       continue;
     }
-    const ObjectId obj = world.scene().find_object(columns[c].object);
+    const ObjectId obj = scene.find_object(columns[c].object);
     for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
       if (patches[p].object == obj) lit[c].push_back(p);
   }
@@ -309,7 +314,7 @@ SeriesOperator operator_shell(const TransportOperator& t, const World& world,
   q.output = o.output;
   q.basis = o.basis;
   q.precision = o.precision;
-  q.columns = series_columns(world, o.basis);
+  q.columns = series_columns(unknown_patches(t, world), world.scene(), o.basis);
   if (q.columns.empty())
     throw InputError("the scene has no emitting object: nothing to precompute");
   q.layout = t.layout();
@@ -345,9 +350,8 @@ void fill_report(SeriesReport& rep, const SeriesOperator& q, const TransportOper
 
 }  // namespace
 
-std::vector<SeriesColumn> series_columns(const World& world, SeriesBasis basis) {
-  const Scene& scene = world.scene();
-  const PatchSet& patches = world.patches();
+std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene,
+                                         SeriesBasis basis) {
   std::vector<SeriesColumn> columns;
   if (basis == SeriesBasis::kObject) {
     for (const auto& o : scene.objects)
@@ -368,7 +372,8 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   const auto cols = static_cast<std::int64_t>(q.columns.size());
   std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);
   auto unknown = [&](PatchId p) { return permuted ? permuted->permutation().position[p] : p; };
-  const std::vector<std::vector<PatchId>> lit = lit_patches(q.columns, world);
+  const std::vector<std::vector<PatchId>> lit =
+      lit_patches(q.columns, unknown_patches(t, world), world.scene());
 
   Field s = Field::Zero(t.size(), 3);
   for (const auto& list : lit)

@@ -407,8 +407,11 @@ std::vector<Vec3> clip_to_front(const std::vector<Vec3>& polygon, const Vec3& or
   return out;
 }
 
-double point_to_polygon_form_factor(const Vec3& x, const Vec3& n,
-                                    const std::vector<Vec3>& polygon) {
+double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon) {
+  return point_to_polygon_form_factor(x, n, std::span<const Vec3>(polygon));
+}
+
+double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<const Vec3> polygon) {
   if (polygon.size() > 4 * ContourEdges::kGroups)
     throw std::invalid_argument("point_to_polygon_form_factor: more than 8 corners");
   return contour_form_factor(x, n, ContourEdges(polygon));
@@ -420,7 +423,8 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
   const double larger_diameter = std::max(a.diameter(), b.diameter());
   double eps = 1e-9 * larger_diameter;
   if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return 0.0;
-  std::vector<QuadraturePoint> points;
+  // One buffer per thread, reused: callers loop over many pairs (the hierarchy's links).
+  thread_local std::vector<QuadraturePoint> points;
   long long rays = 0;
   double g =
       facing_pair_form_factor(a, b, larger_diameter, caster, options, key, rays, a_exposed, points);

@@ -11,6 +11,10 @@ PermutedTransport::PermutedTransport(const TransportOperator& t, Permutation p)
     throw InputError(
         "reordering needs T's stored rows; with --specular-on-the-fly its link rows "
         "are recomputed at every product (use --reorder none)");
+  if (t.hierarchical())
+    throw InputError(
+        "reordering needs T's stored rows; a hierarchical mesh keeps T factored "
+        "in its trees and links (use --reorder none)");
   const Csr<float>& w = t.weights();
   POLYRAD_CHECK(permutation_.size() == w.rows);
   weights_.rows = 0;

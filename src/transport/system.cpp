@@ -11,6 +11,13 @@ namespace polyrad {
 MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options) {
   MemoryEstimate m;
   m.patches = count_patches(scene);
+  if (options.mesh == MeshKind::kHierarchical) {
+    // The first pass judges every facing pair of roots and keeps those it links: as if half of
+    // them, 56 bytes each while building; elements about 300 bytes, a few levels a root.
+    m.form_factors = 0.5 * m.patches * m.patches * 0.5 * 56.0;
+    m.fields = m.patches * 64 * 300.0;
+    return m;
+  }
   // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
   m.form_factors = 0.5 * m.patches * m.patches * (8.0 * 2 + 16.0);
   double reflecting = 0.0;
@@ -60,8 +67,58 @@ SystemSummary RadiositySystem::summary() const {
   s.operator_bytes = transport.bytes();
   s.max_albedo = transport.max_albedo();
   s.lobes = lobes;
+  if (hierarchy) {
+    s.mesh = MeshKind::kHierarchical;
+    HierarchySummary h;
+    h.roots = hierarchy->num_roots();
+    h.elements = static_cast<long long>(hierarchy->elements().size());
+    h.leaves = hierarchy->num_leaves();
+    h.links = static_cast<long long>(hierarchy->links().size());
+    h.link_entries = hierarchy->op()->link_entries();
+    h.operator_bytes = hierarchy->op()->bytes();
+    h.stats = hierarchy->stats();
+    s.hierarchy = h;
+  }
   return s;
 }
+
+namespace {
+
+// The hierarchical mesh's stages (transport/hierarchy.h): element trees on the world's patches,
+// links refined pass by pass, T on the leaves. Diffuse transport only: a lobe is refused (a
+// classic world has none).
+void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
+  const World& w = *sys.world;
+  for (const auto& o : w.scene().objects)
+    if (w.materials()[o.material].has_lobe())
+      throw InputError(SourceLocation{w.scene().file},
+                       "object '" + o.name +
+                           "' has a mirror, glossy or Phong material; the "
+                           "hierarchical mesh carries diffuse light only (use --mesh uniform, or "
+                           "--classic for the diffuse part alone)");
+  HierarchyOptions ho = options.hierarchy;
+  ho.form_factors = options.form_factors;
+  auto h = std::make_shared<ElementHierarchy>(
+      build_hierarchy(w.patches(), w.materials(), w.caster(), ho));
+  const HierarchyStats& st = h->stats();
+  double oracle = 0.0, form_factors = 0.0, solves = 0.0;
+  for (const auto& p : st.passes) {
+    oracle += p.oracle_seconds;
+    form_factors += p.form_factor_seconds;
+    solves += p.solve_seconds;
+  }
+  sys.times.push_back({"hierarchy_exposure", st.exposure_seconds});
+  sys.times.push_back({"hierarchy_oracle", oracle});
+  sys.times.push_back({"hierarchy_form_factors", form_factors});
+  sys.times.push_back({"hierarchy_pass_solves", solves});
+  sys.times.push_back({"hierarchy", st.seconds});
+  sys.hierarchy = h;
+  Stopwatch watch;
+  sys.transport = hierarchical_transport(h, w.materials());
+  sys.times.push_back({"operator", watch.seconds()});
+}
+
+}  // namespace
 
 std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world,
                                               const SystemOptions& options) {
@@ -70,6 +127,10 @@ std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world
   sys->world = std::move(world);
   const World& w = *sys->world;
   sys->times = w.times();
+  if (options.mesh == MeshKind::kHierarchical) {
+    build_hierarchical(*sys, options);
+    return sys;
+  }
   Stopwatch watch;
   sys->form_factors = compute_form_factors(w.patches(), w.caster(), options.form_factors);
   sys->times.push_back({"form_factors", watch.lap()});

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <map>
 
+#include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/specular_transfer.h"
 #include "polyrad/util/error.h"
 
@@ -237,6 +238,7 @@ void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen
 void TransportOperator::apply(const Field& in, Field& out) const {
   const Eigen::Index rows = size();
   out.resize(rows, 3);
+  if (hierarchy_) return hierarchy_->apply(in.data(), out.data(), 3);
 #pragma omp parallel for schedule(dynamic, 256)
   for (Eigen::Index r = 0; r < rows; ++r) {
     double a[3] = {0.0, 0.0, 0.0};
@@ -267,11 +269,16 @@ void apply_weighted_rows(const Csr<float>& weights, const std::vector<Eigen::Arr
 }
 
 void TransportOperator::apply(const FieldBlock& in, FieldBlock& out) const {
+  if (hierarchy_) {
+    out.resize(in.rows(), in.cols());
+    return hierarchy_->apply(in.data(), out.data(), in.cols());
+  }
   apply_weighted_rows(weights_, row_colour_, in, out);
   if (on_the_fly_) recompute_link_rows(in.data(), out.data(), in.cols(), false, nullptr);
 }
 
 void TransportOperator::apply_channel(const double* in, double* out, int channel) const {
+  if (hierarchy_) return hierarchy_->apply(in, out, 1, channel);
   if (on_the_fly_) {  // the recomputed rows work on whole fields
     Field a = Field::Zero(size(), 3), b;
     for (Eigen::Index r = 0; r < size(); ++r) a(r, channel) = in[r];
@@ -289,6 +296,7 @@ void TransportOperator::apply_channel(const double* in, double* out, int channel
 }
 
 void TransportOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
+  if (hierarchy_) return hierarchy_->gauss_seidel_sweep(e, u);
   // Stored rows (all of them, or only the diffuse ones when the link rows are recomputed).
   const Eigen::Index rows = on_the_fly_ ? layout_.num_patches : size();
   for (Eigen::Index r = 0; r < rows; ++r) {
@@ -316,7 +324,8 @@ double TransportOperator::flux_norm(const Field& f) const {
 
 std::size_t TransportOperator::bytes() const {
   return weights_.bytes() + row_colour_.size() * sizeof(Eigen::Array3f) +
-         layout_.links.size() * sizeof(Link) + layout_.link_start.size() * sizeof(std::int64_t);
+         layout_.links.size() * sizeof(Link) + layout_.link_start.size() * sizeof(std::int64_t) +
+         (hierarchy_ ? hierarchy_->bytes() : 0);
 }
 
 }  // namespace polyrad

@@ -52,7 +52,9 @@ struct SeriesOptions {
 };
 
 // The columns of S for a set of patches.
-std::vector<SeriesColumn> series_columns(const World& world, SeriesBasis basis);
+// patches: those of the B unknowns (the world's, or a hierarchy's leaves, which keep their
+// root's object and emission).
+std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene, SeriesBasis basis);
 
 // Runs the precompute. View rows fold in `gather` when given (it must have been built from
 // options.gather for this world and T), else a gather built here. Throws NumericalError if the

@@ -29,6 +29,7 @@
 // Memory: 8 bytes per non-zero F_ij (both directions are stored).
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include "polyrad/geometry/mesher.h"
@@ -95,6 +96,8 @@ std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& cast
 // of x's tangent plane and faces x (Lambert's formula). At most 8 corners (std::invalid_argument
 // beyond: the formula runs on two packets of four edges).
 double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon);
+// The same on corners held anywhere (no allocation: for loops over many points and polygons).
+double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<const Vec3> polygon);
 
 // The part of a convex polygon on the positive side of the plane through `origin` with normal
 // `normal` (Sutherland-Hodgman against one plane).

@@ -16,10 +16,12 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "polyrad/transport/form_factors.h"
+#include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/lobe_resolution.h"
 #include "polyrad/transport/specular_transfer.h"
 #include "polyrad/transport/transport.h"
@@ -28,8 +30,22 @@
 
 namespace polyrad {
 
+// How the scene's surfaces become unknowns: equal patches linked pair by pair, or element trees
+// on those patches linked at the level the light needs (transport/hierarchy.h; diffuse transport
+// only).
+enum class MeshKind { kUniform, kHierarchical };
+template <>
+struct EnumNames<MeshKind> {
+  static constexpr const char* kind = "mesh";
+  static constexpr std::array<std::pair<MeshKind, const char*>, 2> table{
+      {{MeshKind::kUniform, "uniform"}, {MeshKind::kHierarchical, "hierarchical"}}};
+};
+
 struct SystemOptions {
   FormFactorOptions form_factors;
+  MeshKind mesh = MeshKind::kUniform;
+  // With MeshKind::kHierarchical (its form factor options are taken from the field above).
+  HierarchyOptions hierarchy;
   SpecularOptions specular;
   // Recompute the specular rows at every sweep instead of storing them (section 4.1): the
   // transfer is computed once to find the links, then its entries are released.
@@ -43,7 +59,7 @@ struct SystemOptions {
 // form factors as if half of all patch pairs faced each other, the specular transfer as if
 // every reflector's samples spread over distinct targets, and the solver's fields.
 struct MemoryEstimate {
-  double patches = 0.0;
+  double patches = 0.0;  // of the uniform mesh (a hierarchy's roots)
   double form_factors = 0.0, specular = 0.0, fields = 0.0;
   double total() const { return form_factors + specular + fields; }
 };
@@ -53,9 +69,18 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
 // max_memory_bytes, or 80 percent of the machine's memory).
 void require_memory(const Scene& scene, const SystemOptions& options);
 
+// A hierarchical mesh's figures: elements, links, and what each refinement pass did.
+struct HierarchySummary {
+  long long roots = 0, elements = 0, leaves = 0, links = 0, link_entries = 0;
+  std::size_t operator_bytes = 0;
+  HierarchyStats stats;
+};
+
 // The figures of a built system, for reports: sizes, the stages' statistics, the lobe checks.
 struct SystemSummary {
   long long patches = 0, links = 0, unknowns = 0;
+  MeshKind mesh = MeshKind::kUniform;
+  std::optional<HierarchySummary> hierarchy;  // with a hierarchical mesh
   FormFactorStats form_factors;
   long long form_factor_nnz = 0;
   std::size_t form_factor_bytes = 0;
@@ -77,10 +102,16 @@ struct RadiositySystem {
   // Each glossy object's lobe width against its patches' angle (lobe_resolution.h); those with
   // `smeared` set are the warnings a caller should show.
   std::vector<LobeResolution> lobes;
+  // With a hierarchical mesh: the element trees on the world's patches, whose leaves are the
+  // unknowns (the transport's layout holds it too).
+  std::shared_ptr<const ElementHierarchy> hierarchy;
   StageTimes times;  // the world's (mesh, ray caster), then each stage of the system
 
   const Scene& scene() const { return world->scene(); }
   const PatchSet& patches() const { return world->patches(); }
+  // The patches the B unknowns belong to, one per B unknown: the hierarchy's leaves, or the
+  // world's patches.
+  const PatchSet& unknown_patches() const { return hierarchy ? hierarchy->leaves() : patches(); }
 
   RadiositySystem() = default;
   RadiositySystem(const RadiositySystem&) = delete;

@@ -39,6 +39,9 @@ using Field = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 // Several fields side by side: row r holds [col0 rgb, col1 rgb, ...] (3 C values).
 using FieldBlock = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+class HierarchicalOperator;  // transport/hierarchy.h
+class ElementHierarchy;
+
 struct Link {
   PatchId from = 0;  // i
   PatchId to = 0;    // k
@@ -65,6 +68,9 @@ struct UnknownLayout {
   // tau_ik = pi A'_i F_ik for S_{i->k}. In these weights every column of T sums to at most the
   // largest albedo (section 5).
   std::vector<double> flux_weight;
+  // Set when the B unknowns are the leaves of an element hierarchy (transport/hierarchy.h):
+  // B_l is then the radiosity of leaf l, and a point of a patch reads the leaves under it.
+  std::shared_ptr<const ElementHierarchy> hierarchy;
 
   Eigen::Index size() const { return num_patches + static_cast<Eigen::Index>(links.size()); }
   // Index of the unknown S_{i->k}, or -1 if that link carries no specular radiance.
@@ -110,11 +116,19 @@ class TransportOperator {
   // A sentence naming that material when its bound exceeds 1 (empty otherwise), for messages.
   std::string divergence_hint() const;
   bool on_the_fly() const { return on_the_fly_ != nullptr; }
+  // The unknowns are the leaves of an element hierarchy (transport/hierarchy.h): apply,
+  // Gauss-Seidel and the channel product go through its pull, link and push passes; nothing is
+  // in weights().
+  bool hierarchical() const { return hierarchy_ != nullptr; }
+  const HierarchicalOperator* hierarchy() const { return hierarchy_.get(); }
 
  private:
   friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
                                            const FormFactors&, const SpecularTransfer*,
                                            const OnTheFlySpecular*);
+  friend TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy>,
+                                                  const std::vector<Material>&);
+  std::shared_ptr<const HierarchicalOperator> hierarchy_;
   // Link rows from the estimator: out[link rows] = (e +) colour * sum w x, x = in (or out itself,
   // in place, for Gauss-Seidel); width values per row.
   void recompute_link_rows(const double* in, double* out, Eigen::Index width, bool in_place,

@@ -1,0 +1,266 @@
+// Hierarchical links (Hanrahan, Salzman and Aupperle 1991): each patch of the uniform mesh is
+// the root of an element tree, and light moves along links between elements at whatever level
+// its error estimate allows, so a scene costs links about linear in its elements instead of the
+// uniform mesh's N^2 pairs (papers/glossy-radiosity.md, section 12).
+//
+// Elements. A root is a patch of the uniform mesh at the scene's patch_size, the largest element
+// size. A quad splits bilinearly into four (at the midpoints of its parameters), a triangle into
+// four at its edge midpoints. No element is split below min_element_size.
+//
+// Links. A link joins two elements a and b of different trees and carries light both ways with
+// one etendue G_ab = A'_a F_ab = A'_b F_ba (eq. 4; A' the exposed area). Along a link, the form
+// factor is taken as linear over each end (in its root's parameters): F_ab plus the slopes of
+// the unoccluded point form factors (eq. 5) at the corners. A receiver spreads what it gathers
+// by that linear function, and each part of a source sends by the form factor at its own place
+// (through the source's first moments). With a constant per link instead, a leaf at a wall took
+// every coarse link's average, which near the wall errs with one sign link after link: up to half
+// again too much light at the Cornell box's edges.
+//
+// The oracle (section 12, eq. H1), per direction r <- s and channel c, against what r receives:
+//   - wholly visible: what the linear function misses of the point values at r's corners and
+//     centre, dF_rs, within the tolerance's share of what the link carries:
+//         rho_r B_s dF_rs <= tau rho_r F_rs max(B_s, B_ref / 4)
+//     so the misses of all the links a leaf reads add up to about tau of its light; or the link
+//     carries a negligible share of r's light: rho_r B_s F_rs <= tau max(B_r, B_ref / 4) / 10.
+//     B_ref is the scene's mean reflected radiosity (first estimated as the mean emission over
+//     one minus the mean reflectance, then measured on each solve): sources and receivers
+//     darker than a quarter of it count as that bright;
+//   - not yet tested by rays: the same with dF = F_max (a pair is linked without rays only then);
+//   - partly hidden (some of visibility_rays rays blocked): the shadow may put all of it
+//     anywhere: rho_r B_s F_max <= tau max(B_r, B_ref / 4), a share of r's own radiosity (the
+//     point values, weighed by visible fractions from four rays each, shape its linear
+//     functions but are too noisy to judge them by);
+//   - hidden (every ray blocked): linked as it is, never refined.
+// A pair links at the coarsest level where both directions pass; otherwise the larger element
+// splits and its children are judged (the parts of a wholly visible pair inherit its
+// visibility). The first pass knows only the emission (B = E: only the lights' links refine);
+// each later pass solves, then judges every link again with the new radiosities.
+//
+// The operator on the leaves. One application of T (eq. H2), for leaf radiosities x, y the root
+// parameters, y_n the area centroid of node n:
+//     m_n = sum_{leaves l under n} (A'_l / A'_n) c_l x_l,        pull: every node's area mean
+//     q_n = sum_{leaves l under n} (A'_l / A'_n) c_l x_l (y_l - y_n)   and first moments
+//     H_r(y) = sum_{links r <- s} (F_rs m_s + c_rs . q_s + g_rs . (y - y_r) m_s)    gather
+//     (T x)_l = rho_l sum_{nodes r above l, l included} H_r(y_l)   push: each ancestor's
+//                                                                linear function at l
+// with g_rs the receiver slopes and c_rs = (A'_s / A'_r) g_sr. It is linear in x and stays
+// factored (a tree, the link rows, a tree): never a leaf x leaf matrix. The slopes are shrunk
+// together where the kernel they make could go negative on the pair, so T is non-negative, and
+// a linear function's area mean over the children is its value at their area centroids, so each
+// link delivers exactly its etendue's flux: in flux form (weights pi A'_l) the column of leaf l
+// sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). c_l <= 1, the energy
+// guard, scales the leaves where those form factors would sum above 1 (near contacts, where the
+// linear functions are too coarse), so every column of T sums to at most a_max: section 5's
+// bound, the Jacobi = series identity and the precompute hold unchanged.
+//
+//   ElementHierarchy h = build_hierarchy(patches, scene.materials, caster, {});
+//   TransportOperator t = hierarchical_transport(h, scene.materials);   // unknowns = leaves
+//   (h a std::shared_ptr<const ElementHierarchy>: the operator's layout keeps it)
+//   SolveResult r = solve(t, t.emission());
+//   LeafPoint p = h.leaf_at(hit.patch, hit.u, hit.v);                   // what a hit reads
+//
+// Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
+// refinement costs ten point form factors and at most visibility_rays rays per candidate, and
+// each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 300 bytes per
+// element, 56 per link while building and 48 in T (both directions, five floats and an index
+// each); one application reads every link twice and each tree three times.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/brdf.h"
+#include "polyrad/transport/form_factors.h"
+#include "polyrad/transport/transport.h"
+
+namespace polyrad {
+
+// The sample points of an element at which the oracle evaluates point form factors.
+inline constexpr int kOraclePoints = 5;
+
+struct HierarchyOptions {
+  // tau of eq. H1 (above): the error a link may make, as a fraction of what it carries (or, for
+  // a partly hidden pair, of its receiver's radiosity).
+  double link_tolerance = 0.05;
+  // No element is split into children with an edge shorter than this (scene units); 0: an
+  // eighth of the root's longest edge (three levels).
+  double min_element_size = 0.0;
+  // Refinement passes after the first; each solves and refines with the new radiosities.
+  int passes = 2;
+  // The relative change at which a solve between passes stops (Gauss-Seidel on the hierarchy).
+  double pass_tolerance = 1e-3;
+  // Rays between the two elements of a pair whose error asks for the visibility test.
+  int visibility_rays = 16;
+  // Scale the leaves whose column would sum above a_max (see above); off only to compare.
+  bool energy_guard = true;
+  // The pair form factor of each link (eq. 4), as the uniform mesh computes it.
+  FormFactorOptions form_factors;
+  std::uint64_t seed = 5;  // the oracle's visibility rays
+};
+
+// One node of an element tree.
+struct Element {
+  Patch shape;  // geometry, object, material, emission; bend is the root's
+  PatchId root = 0;
+  std::int32_t parent = -1;
+  std::int32_t first_child = -1;  // children are 4 consecutive elements; -1 for a leaf
+  std::int32_t leaf = -1;         // the unknown of a leaf, -1 for an inner node
+  std::int32_t level = 0;
+  // The corners' parameters on the root (Patch::point), in the order of shape.corner.
+  std::array<Vec2, 4> uv{};
+  Vec2 centroid_uv = Vec2::Zero();  // its area centroid in the root's parameters
+  double exposed = 0.0;             // A': exposed area; a node's is the sum of its children's
+  std::uint64_t key = 0;  // from the root and the path to the element: keys random streams
+  bool is_leaf() const { return first_child < 0; }
+};
+
+// What the oracle's visibility rays found between the two elements of a link.
+enum class LinkVisibility : std::uint8_t { kUntested, kVisible, kPartial, kHidden };
+
+// A link between elements a and b: one pair form factor, both directions. F_ab = m (the mean
+// over a's exposed points of the point form factor to b), F_ba = m A'_a / A'_b.
+struct ElementLink {
+  std::int32_t a = 0, b = 0;
+  float m = 0.0f;
+  // The oracle's unoccluded point form factors (eq. 5) from a's sample points to b (fa) and
+  // from b's to a (fb): the corners pulled 1 percent toward the centre (on a corner that lies
+  // in the other's plane the kernel jumps), then the centre; a triangle repeats its centre.
+  std::array<float, kOraclePoints> fa{}, fb{};
+  LinkVisibility visibility = LinkVisibility::kUntested;
+  // A partly hidden pair's largest unoccluded point values (fa, fb are then weighed by each
+  // point's visible fraction).
+  float fmax_a = 0.0f, fmax_b = 0.0f;
+};
+
+// A point of a root patch located on its leaf.
+struct LeafPoint {
+  std::int32_t element = -1;  // the leaf element
+  std::int32_t leaf = -1;     // its unknown
+  double s = 0.0, t = 0.0;    // parameters on the leaf (Patch::point of its shape)
+};
+
+struct HierarchyPass {
+  long long candidates = 0;  // pairs the oracle judged
+  long long visibility_tests = 0;
+  long long splits = 0;  // elements split
+  long long links = 0;   // links after the pass
+  long long elements = 0, leaves = 0;
+  int sweeps = 0;  // Gauss-Seidel sweeps of the solve that ended the pass
+  double oracle_seconds = 0.0, form_factor_seconds = 0.0, solve_seconds = 0.0;
+};
+
+struct HierarchyStats {
+  double b_ref_estimate = 0.0;  // the first pass's B_ref: mean emission / (1 - mean reflectance)
+  double b_ref = 0.0;           // the last pass's: the mean radiosity of the last solve
+  double min_element_size = 0.0;
+  double exposure_seconds = 0.0;
+  long long root_pairs_facing = 0;
+  long long oracle_rays = 0, form_factor_rays = 0, exposure_rays = 0;
+  std::vector<HierarchyPass> passes;
+  // The energy guard: how far the flux-form column sums of T exceeded a_max before it, and on
+  // how many leaves it acted.
+  double guard_max_excess = 0.0;
+  long long guard_leaves = 0;
+  double seconds = 0.0;
+};
+
+// The operator of eq. H2 on the leaves (see the top of this file). Immutable once built; what
+// TransportOperator holds and forwards to when its unknowns are a hierarchy's leaves.
+class HierarchicalOperator {
+ public:
+  Eigen::Index leaves() const { return static_cast<Eigen::Index>(leaf_node_.size()); }
+  Eigen::Index nodes() const { return static_cast<Eigen::Index>(parent_.size()); }
+  std::int64_t link_entries() const { return links_.nnz(); }
+
+  // out = T in (eq. H2), width values per unknown (a Field: 3; a block: 3 C; one channel: 1,
+  // then `channel` picks the reflectance). in and out must not alias.
+  void apply(const double* in, double* out, Eigen::Index width, int channel = -1) const;
+  // One Gauss-Seidel sweep, root tree by root tree: each tree gathers from the current values
+  // of every other (its own links never reach itself), then pushes, reflects and pulls again.
+  void gauss_seidel_sweep(const Field& e, Field& u) const;
+  // Flux-form column sums of T per leaf, the largest channel's (with reflectance = false, the
+  // form factors' alone: what the guard holds to 1), with or without the guard.
+  std::vector<double> column_sums(bool with_guard, bool reflectance = true) const;
+  std::size_t bytes() const;
+
+ private:
+  friend class HierarchyBuilder;
+  // Nodes in pre-order, tree after tree: a parent before its children.
+  std::vector<std::int32_t> parent_;
+  std::vector<float> share_;             // A'_n / A'_parent(n), the pull weight (0 at a root)
+  std::vector<std::int32_t> node_leaf_;  // the unknown of a leaf node, -1 otherwise
+  std::vector<std::int32_t> leaf_node_;  // the node of each unknown
+  std::vector<std::int32_t>
+      tree_start_;                   // nodes of root tree k: [tree_start_[k], tree_start_[k+1])
+  std::vector<Eigen::Array3f> rho_;  // per leaf
+  std::vector<float> guard_;         // c_l per leaf (1 without the guard)
+  std::vector<double> exposed_;      // A' per node
+  // Row r: (s, {F_rs, g_rs, c_rs}) of every link r <- s: the mean F_rs; g_rs (u and v) the
+  // slopes over r, in its root's parameters, of the linear function by which r's part is spread
+  // over its leaves; c_rs = (A'_s / A'_r) g_sr, which weights the source's first moments, so
+  // that each leaf of s sends along the link by the form factor at its own place.
+  Csr<std::array<float, 5>> links_;
+  std::vector<std::array<float, 2>> centroid_;  // each node's centroid_uv
+};
+
+// The element trees, their links and the operator.
+class ElementHierarchy {
+ public:
+  const std::vector<Element>& elements() const { return elements_; }
+  const std::vector<ElementLink>& links() const { return links_; }
+  int num_roots() const { return num_roots_; }
+  int num_leaves() const { return static_cast<int>(leaves_.size()); }
+  // The leaves as patches, in unknown order: what a caller that indexes unknowns by patch reads
+  // (the series' emission columns, patch tables).
+  const PatchSet& leaves() const { return leaves_; }
+  std::int32_t element_of_leaf(int leaf) const { return leaf_element_[leaf]; }
+  std::shared_ptr<const HierarchicalOperator> op() const { return op_; }
+  const HierarchyStats& stats() const { return stats_; }
+
+  // The leaf under parameters (u, v) of root patch `root` (Patch::point's parameters; a quad's
+  // ray-caster parameters are first moved onto its bilinear map, which differs from Embree's
+  // two triangles on a non-parallelogram).
+  LeafPoint leaf_at(PatchId root, double u, double v) const;
+  // The diffuse radiosity a hit reads as weights on the unknowns, appended to out: its leaf
+  // (flat), or the leaf's corners interpolated at the hit (smooth), each corner the
+  // exposed-area average of the leaves of the same object and orientation that touch it.
+  void diffuse_weights(PatchId root, double u, double v, bool smooth,
+                       std::vector<std::pair<std::int32_t, double>>& out) const;
+
+ private:
+  friend class HierarchyBuilder;
+  void build_corner_averages(const PatchSet& roots);
+  std::vector<Element> elements_;
+  std::vector<ElementLink> links_;
+  std::vector<std::int32_t> leaf_element_;
+  PatchSet leaves_;
+  const PatchSet* roots_ = nullptr;
+  int num_roots_ = 0;
+  std::shared_ptr<HierarchicalOperator> op_;
+  HierarchyStats stats_;
+  // Smooth shading: entries of leaf corner 4 l + c are [corner_start_[4l+c],
+  // corner_start_[4l+c+1]).
+  std::vector<std::int64_t> corner_start_;
+  std::vector<std::pair<std::int32_t, float>> corner_entries_;
+};
+
+// Builds the trees on the uniform mesh `roots` (which the caster was built on, and which must
+// outlive the hierarchy), links them and refines them pass by pass. Only the diffuse part of
+// each material is transported (a material with a lobe is reduced to it).
+ElementHierarchy build_hierarchy(const PatchSet& roots, const std::vector<Material>& materials,
+                                 const RayCaster& caster, const HierarchyOptions& options = {});
+
+// T over the hierarchy's leaves (unknown l = leaf l, no link unknowns), with TransportOperator's
+// whole contract: apply on fields and blocks, Gauss-Seidel, flux weights pi A'_l, a_max.
+// Its layout holds the hierarchy, so that a gather of it reads leaves.
+TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy> h,
+                                         const std::vector<Material>& materials);
+
+}  // namespace polyrad

@@ -1,0 +1,189 @@
+// The transport operator on a hierarchy's leaves (hierarchy.h, eq. H2 of
+// papers/glossy-radiosity.md): pull means and moments through the trees, gather along the links,
+// push the linear functions down and reflect. Kept factored: the trees are two passes over arrays,
+// the links one sparse product.
+#include <algorithm>
+#include <cmath>
+
+#include "polyrad/transport/hierarchy.h"
+
+namespace polyrad {
+
+namespace {
+
+// Per node, the pulled radiosity as its mean m and first moments q = (1/A') int (y - y_n) B dA
+// (y the root parameters, y_n the node's centroid): 3 blocks of width values. Leaves are
+// constant (q = 0); a parent adds each child's share of m and of m (y_c - y_p) + q. Reverse
+// pre-order, so that a node is complete before it is added to its parent.
+void pull_tree(const std::vector<std::int32_t>& parent, const std::vector<float>& share,
+               const std::vector<std::array<float, 2>>& centroid,
+               const std::vector<std::int32_t>& node_leaf, const std::vector<float>& guard,
+               const double* leaf_values, Eigen::Index width, std::int32_t first, std::int32_t last,
+               double* b) {
+  for (std::int32_t n = first; n < last; ++n) {
+    double* y = b + 3 * width * n;
+    std::fill(y, y + 3 * width, 0.0);
+    const std::int32_t l = node_leaf[n];
+    if (l < 0) continue;
+    const double* x = leaf_values + width * l;
+    const double g = guard[l];
+    for (Eigen::Index c = 0; c < width; ++c) y[c] = g * x[c];
+  }
+  for (std::int32_t n = last - 1; n > first; --n) {
+    const std::int32_t p = parent[n];
+    if (p < 0) continue;
+    const double w = share[n];
+    const double du = centroid[n][0] - centroid[p][0], dv = centroid[n][1] - centroid[p][1];
+    const double* x = b + 3 * width * n;
+    double* y = b + 3 * width * p;
+    for (Eigen::Index c = 0; c < width; ++c) {
+      y[c] += w * x[c];
+      y[width + c] += w * (du * x[c] + x[width + c]);
+      y[2 * width + c] += w * (dv * x[c] + x[2 * width + c]);
+    }
+  }
+}
+
+// Over the link rows [first, last), per receiving node r: the mean of what it gathers,
+// sum F_rs m_s + c_rs . q_s (the source's first moments weighted by the slope of the form factor
+// over it), and the slopes of its linear function over r, sum g_rs m_s (eq. H2).
+void gather_rows(const Csr<std::array<float, 5>>& links, const double* b, Eigen::Index width,
+                 std::int32_t first, std::int32_t last, double* h) {
+  for (std::int32_t r = first; r < last; ++r) {
+    double* y = h + 3 * width * r;
+    std::fill(y, y + 3 * width, 0.0);
+    for (auto k = links.start[r]; k < links.start[r + 1]; ++k) {
+      const auto& v = links.value[k];
+      const double f = v[0], gu = v[1], gv = v[2], cu = v[3], cv = v[4];
+      const double* x = b + 3 * width * static_cast<Eigen::Index>(links.column[k]);
+      for (Eigen::Index c = 0; c < width; ++c) {
+        const double m = x[c];
+        y[c] += f * m + cu * x[width + c] + cv * x[2 * width + c];
+        y[width + c] += gu * m;
+        y[2 * width + c] += gv * m;
+      }
+    }
+  }
+}
+
+// Children take their ancestors' linear functions at their own centroids (pre-order: the parent
+// is complete first); the slopes pass on unchanged, as they are in the root's parameters.
+void push_tree(const std::vector<std::int32_t>& parent,
+               const std::vector<std::array<float, 2>>& centroid, Eigen::Index width,
+               std::int32_t first, std::int32_t last, double* h) {
+  for (std::int32_t n = first + 1; n < last; ++n) {
+    const std::int32_t p = parent[n];
+    if (p < 0) continue;
+    const double du = centroid[n][0] - centroid[p][0], dv = centroid[n][1] - centroid[p][1];
+    const double* x = h + 3 * width * p;
+    double* y = h + 3 * width * n;
+    for (Eigen::Index c = 0; c < width; ++c) {
+      y[c] += x[c] + du * x[width + c] + dv * x[2 * width + c];
+      y[width + c] += x[width + c];
+      y[2 * width + c] += x[2 * width + c];
+    }
+  }
+}
+
+}  // namespace
+
+void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index width,
+                                 int channel) const {
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  const auto n = static_cast<std::int32_t>(nodes());
+  std::vector<double> b(3 * static_cast<std::size_t>(n) * width), h(b.size());
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int32_t k = 0; k < trees; ++k)
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
+              tree_start_[k + 1], b.data());
+  constexpr std::int32_t kRows = 256;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::int32_t r0 = 0; r0 < n; r0 += kRows)
+    gather_rows(links_, b.data(), width, r0, std::min(n, r0 + kRows), h.data());
+  const auto leaves_count = static_cast<std::int32_t>(leaves());
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int32_t k = 0; k < trees; ++k)
+    push_tree(parent_, centroid_, width, tree_start_[k], tree_start_[k + 1], h.data());
+#pragma omp parallel for schedule(static)
+  for (std::int32_t l = 0; l < leaves_count; ++l) {
+    const double* x = h.data() + 3 * width * leaf_node_[l];  // the mean at the leaf
+    double* y = out + width * l;
+    const auto& rho = rho_[l];
+    if (channel >= 0) {
+      y[0] = rho[channel] * x[0];
+    } else {
+      for (Eigen::Index c = 0; c < width; ++c) y[c] = rho[c % 3] * x[c];
+    }
+  }
+}
+
+void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  const Eigen::Index width = 3;
+  std::vector<double> b(3 * static_cast<std::size_t>(nodes()) * width), h(b.size());
+  for (std::int32_t k = 0; k < trees; ++k)
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, tree_start_[k],
+              tree_start_[k + 1], b.data());
+  for (std::int32_t k = 0; k < trees; ++k) {
+    const std::int32_t first = tree_start_[k], last = tree_start_[k + 1];
+    // This tree gathers from every other tree's current values; no link joins a tree to
+    // itself, so its own old values are not read and the order inside the tree is free.
+    gather_rows(links_, b.data(), width, first, last, h.data());
+    push_tree(parent_, centroid_, width, first, last, h.data());
+    for (std::int32_t m = first; m < last; ++m) {
+      const std::int32_t l = node_leaf_[m];
+      if (l < 0) continue;
+      for (int c = 0; c < 3; ++c) u(l, c) = e(l, c) + rho_[l][c] * h[3 * width * m + c];
+    }
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, first, last,
+              b.data());
+  }
+}
+
+std::vector<double> HierarchicalOperator::column_sums(bool with_guard, bool reflectance) const {
+  // The flux a unit of flux at leaf l sends along link r <- s, s above l (l included), is
+  // rho_r (F_sr + g_sr . (y_l - y_s)) with g_sr = (A'_s / A'_r) c_rs: per node s, the sums
+  // K_s = sum rho_r A'_r F_rs / A'_s and their slopes, then for each leaf the chain of its nodes.
+  const auto n = static_cast<std::int32_t>(nodes());
+  std::vector<Eigen::Array3d> k(n, Eigen::Array3d::Zero()), ku(n, Eigen::Array3d::Zero()),
+      kv(n, Eigen::Array3d::Zero());
+  for (std::int32_t r = 0; r < n; ++r) {
+    // The reflectance of r's tree: a tree is one patch, one material, so that of the first leaf
+    // after r in pre-order, which is below r.
+    Eigen::Array3d rho = Eigen::Array3d::Ones();
+    if (reflectance)
+      for (std::int32_t m = r; m < n; ++m)
+        if (node_leaf_[m] >= 0) {
+          rho = rho_[node_leaf_[m]].cast<double>();
+          break;
+        }
+    for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
+      const std::int32_t s = links_.column[e];
+      if (!(exposed_[s] > 0.0)) continue;
+      const double w = exposed_[r] / exposed_[s];
+      k[s] += rho * (w * links_.value[e][0]);
+      ku[s] += rho * (w * links_.value[e][3]);
+      kv[s] += rho * (w * links_.value[e][4]);
+    }
+  }
+  std::vector<double> sums(leaves());
+  for (std::int32_t l = 0; l < static_cast<std::int32_t>(leaves()); ++l) {
+    const std::int32_t leaf = leaf_node_[l];
+    Eigen::Array3d sum = Eigen::Array3d::Zero();
+    for (std::int32_t s = leaf; s >= 0; s = parent_[s])
+      sum += k[s] + ku[s] * (centroid_[leaf][0] - centroid_[s][0]) +
+             kv[s] * (centroid_[leaf][1] - centroid_[s][1]);
+    sums[l] = sum.maxCoeff() * (with_guard ? guard_[l] : 1.0);
+  }
+  return sums;
+}
+
+std::size_t HierarchicalOperator::bytes() const {
+  return links_.bytes() + parent_.size() * sizeof(std::int32_t) + share_.size() * sizeof(float) +
+         node_leaf_.size() * sizeof(std::int32_t) + leaf_node_.size() * sizeof(std::int32_t) +
+         tree_start_.size() * sizeof(std::int32_t) + rho_.size() * sizeof(Eigen::Array3f) +
+         guard_.size() * sizeof(float) + exposed_.size() * sizeof(double) +
+         centroid_.size() * sizeof(centroid_[0]);
+}
+
+}  // namespace polyrad

@@ -1,0 +1,344 @@
+// Hierarchical links (hierarchy.h) against exact answers, the uniform mesh, and the contract of
+// TransportOperator that the solvers and the series rely on.
+#include "polyrad/transport/hierarchy.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include "polyrad/render/camera_gather.h"
+#include "polyrad/solve/series_precompute.h"
+#include "polyrad/solve/solver.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/util/error.h"
+#include "polyrad/util/sampling.h"
+#include "test_support.h"
+
+namespace polyrad {
+namespace {
+
+// What a system is built with: the scene's overrides and the system's options.
+struct Options {
+  SceneOverrides overrides;
+  SystemOptions system;
+};
+
+Options hierarchical(double tolerance, double min_element_size = 0.0) {
+  Options o;
+  o.system.mesh = MeshKind::kHierarchical;
+  o.system.hierarchy.link_tolerance = tolerance;
+  o.system.hierarchy.min_element_size = min_element_size;
+  return o;
+}
+
+std::unique_ptr<RadiositySystem> build(Scene scene, const Options& o) {
+  return build_system(std::move(scene), o.overrides, o.system);
+}
+
+std::string grey(double a) {
+  std::ostringstream s;
+  s << R"({"type": "diffuse", "reflectance": [)" << a << ", " << a << ", " << a << "]}";
+  return s.str();
+}
+
+// The white furnace of METHOD.md section 8 on the hierarchy: as the tolerance falls, every leaf
+// approaches E / (1 - a), and at tau = 0.003 every leaf, refined down to an eighth of its root,
+// is within 0.5 percent; the camera reads the same, flat and smooth. (A closed box of two
+// roots a side is all near field: the uniform mesh is exact here, the hierarchy converges.)
+TEST(Hierarchy, FurnaceIsEmissionOverOneMinusAlbedoOnEveryLeaf) {
+  const double a = 0.5, expect = 1.0 / (1.0 - a);
+  const std::string json = test::closed_box_json(Vec3(1, 1, 1), 0.5, grey(a), 1.0);
+  double previous = INFINITY;
+  for (double tolerance : {0.05, 0.02, 0.003}) {
+    auto sys = build(test::scene_from_json(json), hierarchical(tolerance, 1.0 / 16));
+    const ElementHierarchy& h = *sys->hierarchy;
+    EXPECT_GT(h.num_leaves(), 4 * h.num_roots());  // it did refine
+    SolveOptions o;
+    o.tolerance = 1e-9;
+    SolveResult r = solve(sys->transport, sys->transport.emission(), o);
+    ASSERT_TRUE(r.ok()) << r.message;
+    const double error = (r.u.array() - expect).abs().maxCoeff() / expect;
+    EXPECT_LT(error, previous) << "tolerance " << tolerance;
+    previous = error;
+    if (tolerance > 0.003) continue;
+    EXPECT_LT(error, 5e-3) << "tolerance " << tolerance;
+    for (DiffuseMode mode : {DiffuseMode::kFlat, DiffuseMode::kSmooth}) {
+      GatherOptions go;
+      go.diffuse = mode;
+      Gather g = build_gather(*sys->world, sys->transport.layout(), go);
+      Image img = apply_gather(g, r.u);
+      for (float v : img.rgb) ASSERT_NEAR(v, expect, 5e-3 * expect);
+    }
+  }
+}
+
+// Two directly opposed unit squares at distance 1 (METHOD.md section 8): F = 0.199825. The lamp
+// refines the pair; the etendues of the links between the two trees still sum to A F, and one
+// application of T delivers exactly that flux to the receiver's leaves.
+TEST(Hierarchy, ParallelSquaresLinksSumToTheAnalyticFormFactor) {
+  const char* json = R"({
+    "camera": {"position": [0.5, 0.5, -2], "look_at": [0.5, 0.5, 1], "fov_deg": 40, "width": 8, "height": 8},
+    "patch_size": 1,
+    "materials": {"black": {"type": "diffuse", "reflectance": [0, 0, 0]},
+                  "white": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}},
+    "objects": [
+      {"name": "lamp", "material": "black", "emission": [1, 1, 1],
+       "polygon": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]},
+      {"name": "receiver", "material": "white",
+       "polygon": [[0, 0, 1], [0, 1, 1], [1, 1, 1], [1, 0, 1]]}
+    ]})";
+  auto sys = build(test::scene_from_json(json), hierarchical(0.01, 1.0 / 8));
+  const ElementHierarchy& h = *sys->hierarchy;
+  ASSERT_EQ(h.num_roots(), 2);
+  int deepest = 0;
+  for (const auto& e : h.elements()) deepest = std::max(deepest, e.level);
+  EXPECT_GE(deepest, 2);
+  double etendue = 0.0;  // sum of A'_a F_ab over the links, / pi
+  for (const auto& l : h.links()) etendue += h.elements()[l.a].exposed * l.m;
+  const double exact = test::parallel_rectangles_ff(1, 1, 1);
+  EXPECT_NEAR(exact, 0.199825, 1e-6);
+  // The uniform mesh's pair rule holds 1e-3 on one pair; summed over the links' finer pairs.
+  EXPECT_NEAR(etendue, exact, 1e-3) << h.links().size() << " links";
+  Field e = sys->transport.emission(), te;
+  sys->transport.apply(e, te);
+  double flux = 0.0;  // pi A'_l (T e)_l over the receiver's leaves, / (pi rho E)
+  for (int l = 0; l < h.num_leaves(); ++l) flux += sys->transport.flux_weight()[l] * te(l, 0);
+  EXPECT_NEAR(flux / (kPi * 0.5), etendue, 1e-5 * etendue);
+}
+
+// The contract the series rests on: K Jacobi sweeps are the order-K power series, through the
+// precompute's own products, and T's powers summed by hand.
+TEST(Hierarchy, JacobiSweepsAreThePowerSeries) {
+  Options o = hierarchical(0.2);
+  o.overrides.patch_size = 100;
+  auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+  const auto& t = sys->transport;
+  ASSERT_TRUE(t.hierarchical());
+  ASSERT_GT(sys->hierarchy->num_leaves(), sys->hierarchy->num_roots());
+  for (int k : {0, 1, 6}) {
+    SolveOptions so;
+    so.method = SolveMethod::kJacobi;
+    so.fixed_sweeps = k;
+    Field jacobi = solve(t, t.emission(), so).u;
+    Field term = t.emission(), sum = term, next;
+    for (int n = 0; n < k; ++n) {
+      t.apply(term, next);
+      term.swap(next);
+      sum += term;
+    }
+    const double scale = jacobi.cwiseAbs().maxCoeff();
+    EXPECT_LT((sum - jacobi).cwiseAbs().maxCoeff(), 1e-12 * scale) << "K " << k;
+    SeriesOptions q;
+    q.order = k;
+    q.output = SeriesOutput::kSolution;
+    q.progress = false;
+    SeriesOperator series = precompute_series(t, *sys->world, q);
+    std::vector<float> em = series.column_emission(), out(3 * series.rows());
+    series.apply(em.data(), out.data());
+    EXPECT_LT((series_field(series, out) - jacobi).cwiseAbs().maxCoeff(), 1e-6 * scale)
+        << "K " << k;
+  }
+  // And Gauss-Seidel on the trees converges to the same solution as Jacobi.
+  SolveOptions gs, jac;
+  gs.tolerance = jac.tolerance = 1e-10;
+  jac.method = SolveMethod::kJacobi;
+  Field a = solve(t, t.emission(), gs).u, b = solve(t, t.emission(), jac).u;
+  EXPECT_LT(t.flux_norm(a - b) / t.flux_norm(b), 1e-8);
+}
+
+// Every column of T sums to at most a_max in flux form (section 5), and T is non-negative:
+// checked on T itself, a unit of flux at a time, for the leaves whose sums come nearest.
+TEST(Hierarchy, ColumnSumsInFluxFormStayWithinTheLargestAlbedo) {
+  Options o = hierarchical(0.1);
+  o.overrides.patch_size = 100;
+  auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+  const auto& t = sys->transport;
+  const HierarchicalOperator& op = *t.hierarchy();
+  const std::vector<double> guarded = op.column_sums(true), raw = op.column_sums(false, false);
+  const double a_max = t.max_albedo();
+  EXPECT_GT(*std::max_element(raw.begin(), raw.end()), 1.0);  // the guard had work to do
+  EXPECT_GT(sys->hierarchy->stats().guard_leaves, 0);
+  std::vector<int> order(guarded.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::partial_sort(order.begin(), order.begin() + 40, order.end(),
+                    [&](int x, int y) { return guarded[x] > guarded[y]; });
+  for (int k = 0; k < 60; ++k) {
+    const int l = k < 40 ? order[k] : (k * 7919) % static_cast<int>(guarded.size());
+    ASSERT_LE(guarded[l], a_max) << "leaf " << l;
+    if (!(t.flux_weight()[l] > 0.0)) continue;
+    Field unit = Field::Zero(t.size(), 3), out;
+    unit.row(l).setConstant(1.0 / t.flux_weight()[l]);  // a unit of flux
+    t.apply(unit, out);
+    ASSERT_GE(out.minCoeff(), 0.0) << "leaf " << l;
+    Eigen::Array3d column = t.flux_norm_channels(out);
+    EXPECT_LE(column.maxCoeff(), a_max * (1.0 + 1e-6)) << "leaf " << l;
+    EXPECT_NEAR(column.maxCoeff(), guarded[l], 1e-5) << "leaf " << l;
+  }
+}
+
+// Refinement concentrates where the light changes: a block on a floor under a wide lamp, and the
+// floor's leaves along the block's base (contact shadow, near field) are several times denser
+// than half a metre away (where the floor sees the lamp whole and everything else from afar).
+TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
+  const char* json = R"({
+    "camera": {"position": [1, 1.5, -1], "look_at": [1, 0, 1], "fov_deg": 60, "width": 8, "height": 8},
+    "patch_size": 0.25,
+    "materials": {"grey": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
+                  "black": {"type": "diffuse", "reflectance": [0, 0, 0]}},
+    "objects": [
+      {"name": "floor", "material": "grey", "polygon": [[0, 0, 0], [0, 0, 2], [2, 0, 2], [2, 0, 0]]},
+      {"name": "lamp", "material": "black", "emission": [1, 1, 1],
+       "polygon": [[0, 2, 0], [2, 2, 0], [2, 2, 2], [0, 2, 2]]},
+      {"name": "top", "material": "grey",
+       "polygon": [[0.8, 0.4, 0.8], [0.8, 0.4, 1.2], [1.2, 0.4, 1.2], [1.2, 0.4, 0.8]]},
+      {"name": "west", "material": "grey",
+       "polygon": [[0.8, 0, 0.8], [0.8, 0, 1.2], [0.8, 0.4, 1.2], [0.8, 0.4, 0.8]]},
+      {"name": "east", "material": "grey",
+       "polygon": [[1.2, 0, 0.8], [1.2, 0.4, 0.8], [1.2, 0.4, 1.2], [1.2, 0, 1.2]]},
+      {"name": "south", "material": "grey",
+       "polygon": [[0.8, 0, 0.8], [0.8, 0.4, 0.8], [1.2, 0.4, 0.8], [1.2, 0, 0.8]]},
+      {"name": "north", "material": "grey",
+       "polygon": [[0.8, 0, 1.2], [1.2, 0, 1.2], [1.2, 0.4, 1.2], [0.8, 0.4, 1.2]]}
+    ]})";
+  auto sys = build(test::scene_from_json(json), hierarchical(0.1, 1.0 / 32));
+  const ElementHierarchy& h = *sys->hierarchy;
+  const ObjectId floor = sys->scene().find_object("floor");
+  double near_area = 0.0, far_area = 0.0;
+  int near = 0, far = 0;
+  for (int l = 0; l < h.num_leaves(); ++l) {
+    const Element& e = h.elements()[h.element_of_leaf(l)];
+    if (e.shape.object != floor || !(e.exposed > 0.0)) continue;
+    // Distance from the block's footprint [0.8, 1.2]^2 in x, z.
+    const double dx = std::max(0.0, std::abs(e.shape.centroid.x() - 1.0) - 0.2);
+    const double dz = std::max(0.0, std::abs(e.shape.centroid.z() - 1.0) - 0.2);
+    const double d = std::hypot(dx, dz);
+    if (d < 0.05) {
+      near_area += e.exposed;
+      ++near;
+    } else if (d > 0.5) {
+      far_area += e.exposed;
+      ++far;
+    }
+  }
+  ASSERT_GT(near, 0);
+  ASSERT_GT(far, 0);
+  const double near_density = near / near_area, far_density = far / far_area;
+  EXPECT_GT(near_density, 4.0 * far_density)
+      << near << " leaves on " << near_area << " m2 along the base, " << far << " on " << far_area
+      << " m2 half a metre away";
+}
+
+// Hanrahan et al.'s count: at one tolerance, links grow about linearly with the elements as the
+// smallest element shrinks (log-log slope near 1; the uniform mesh's pairs grow with slope 2).
+TEST(Hierarchy, LinksGrowAboutLinearlyWithElements) {
+  std::vector<double> elements, links;
+  for (double min_size : {25.0, 12.5, 6.25}) {
+    Options o = hierarchical(0.05, min_size);
+    o.overrides.patch_size = 200;
+    auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+    elements.push_back(std::log(static_cast<double>(sys->hierarchy->elements().size())));
+    links.push_back(std::log(static_cast<double>(sys->hierarchy->links().size())));
+  }
+  // Least-squares slope of log links against log elements.
+  const double n = static_cast<double>(elements.size());
+  const double mx = std::accumulate(elements.begin(), elements.end(), 0.0) / n;
+  const double my = std::accumulate(links.begin(), links.end(), 0.0) / n;
+  double sxy = 0.0, sxx = 0.0;
+  for (size_t k = 0; k < elements.size(); ++k) {
+    sxy += (elements[k] - mx) * (links[k] - my);
+    sxx += (elements[k] - mx) * (elements[k] - mx);
+  }
+  const double slope = sxy / sxx;
+  EXPECT_GT(elements.back() - elements.front(), std::log(6.0));  // the elements did grow
+  EXPECT_LT(slope, 1.2) << "log-log slope of links against elements";
+  EXPECT_GT(slope, 0.3) << "log-log slope of links against elements";
+}
+
+// With no element split, the hierarchy is the uniform mesh: the same form factors, keys and
+// exposure, so the same T (to the float rounding of the stored form factor).
+TEST(Hierarchy, OneLevelTreeIsTheUniformSystem) {
+  Options uniform;
+  uniform.overrides.patch_size = 100;
+  Options one = hierarchical(0.1, 1e6);
+  one.overrides.patch_size = 100;
+  one.system.hierarchy.energy_guard = false;
+  auto u = build(load_scene(test::scene_path("cornell-box")), uniform);
+  auto h = build(load_scene(test::scene_path("cornell-box")), one);
+  ASSERT_EQ(h->hierarchy->num_leaves(), static_cast<int>(u->patches().size()));
+  ASSERT_EQ(h->transport.size(), u->transport.size());
+  Rng rng(3);
+  Field x(u->transport.size(), 3), tu, th;
+  for (Eigen::Index r = 0; r < x.rows(); ++r)
+    for (int c = 0; c < 3; ++c) x(r, c) = rng.uniform();
+  u->transport.apply(x, tu);
+  h->transport.apply(x, th);
+  EXPECT_LT((tu - th).cwiseAbs().maxCoeff(), 1e-6 * tu.cwiseAbs().maxCoeff());
+  for (Eigen::Index r = 0; r < x.rows(); ++r)
+    ASSERT_NEAR(h->transport.flux_weight()[r], u->transport.flux_weight()[r],
+                1e-9 * u->transport.flux_weight()[r]);
+}
+
+// A hit reads the leaf under it: for points all over every root, the leaf found holds the point.
+TEST(Hierarchy, ALeafIsFoundUnderEveryPointOfItsRoot) {
+  Options o = hierarchical(0.1, 6.25);
+  o.overrides.patch_size = 100;
+  auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+  const ElementHierarchy& h = *sys->hierarchy;
+  Rng rng(9);
+  for (PatchId p = 0; p < static_cast<PatchId>(sys->patches().size()); ++p) {
+    const Patch& root = sys->patches()[p];
+    for (int k = 0; k < 20; ++k) {
+      double u = rng.uniform(), v = rng.uniform();
+      if (root.is_triangle() && u + v > 1.0) u = 1.0 - u, v = 1.0 - v;
+      const LeafPoint lp = h.leaf_at(p, u, v);
+      ASSERT_GE(lp.leaf, 0);
+      const Element& e = h.elements()[lp.element];
+      ASSERT_EQ(e.root, p);
+      ASSERT_EQ(e.leaf, lp.leaf);
+      EXPECT_GE(lp.s, -1e-9);
+      EXPECT_GE(lp.t, -1e-9);
+      EXPECT_LE(root.is_triangle() ? lp.s + lp.t : std::max(lp.s, lp.t), 1.0 + 1e-9);
+      // Embree's parameters are linear on the quad's two triangles; on these near-rectangles
+      // they name the bilinear point to well under a millimetre.
+      EXPECT_LT((e.shape.point(lp.s, lp.t) - root.point(u, v)).norm(), 0.5) << "root " << p;
+    }
+  }
+}
+
+// Random streams are keyed by element pairs, never by thread: the same links on 1 and 2 threads.
+TEST(Hierarchy, SameLinksOnOneOrTwoThreads) {
+  auto build_on = [](int threads) {
+    omp_set_num_threads(threads);
+    Options o = hierarchical(0.2);
+    o.overrides.patch_size = 100;
+    auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+    omp_set_num_threads(omp_get_num_procs());
+    return sys;
+  };
+  auto one = build_on(1), two = build_on(2);
+  const auto &a = one->hierarchy->links(), &b = two->hierarchy->links();
+  ASSERT_EQ(one->hierarchy->elements().size(), two->hierarchy->elements().size());
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a[k].a, b[k].a);
+    ASSERT_EQ(a[k].b, b[k].b);
+    ASSERT_EQ(a[k].m, b[k].m);
+  }
+}
+
+// Diffuse transport only, so far: a lobe is refused with a message, unless --classic.
+TEST(Hierarchy, ALobeIsRefusedUnlessClassic) {
+  Options o = hierarchical(0.2);
+  o.overrides.patch_size = 100;
+  EXPECT_THROW(build(load_scene(test::scene_path("cornell-mirror-cube")), o), InputError);
+  o.overrides.classic = true;
+  auto sys = build(load_scene(test::scene_path("cornell-mirror-cube")), o);
+  EXPECT_TRUE(sys->transport.hierarchical());
+}
+
+}  // namespace
+}  // namespace polyrad
