@@ -35,13 +35,14 @@ DemoResult demo(const DemoOptions& f) {
   auto sys = build_system(World::load(f.scene));
   const World& world = *sys->world;
   const auto& t = sys->transport;
-  const Gather gather = build_gather(world, t.layout());
+  // The final gather, stored: the iterative image and the precompute's view rows both read it.
+  const Gather gather = build_gather(world, t.layout(), GatherOptions::final_gather());
 
   say("solving iteratively (Gauss-Seidel to a relative residual of 1e-4)");
   SolveResult solution = solve(t, t.emission(), SolveOptions{});
   if (!solution.ok()) throw NumericalError(solution.message);
   Stopwatch gather_watch;
-  const Image radiosity = gather_image(gather, solution.u);
+  const Image radiosity = gather_image(gather, solution.u, world);
   const double iterative_seconds = solution.seconds + gather_watch.seconds();
   write_image(radiosity, dir + "radiosity.exr");
   write_image(radiosity, dir + "radiosity.png");

@@ -115,7 +115,9 @@ Relit Relighter::relight(const std::map<std::string, Rgb>& emission, const Orbit
     r.product_seconds = time_seconds([&] { q_.apply(e.data(), out.data()); });
     Stopwatch watch;
     std::shared_ptr<const Gather> g = views_->gather(orbit, &r.gather_built);
-    r.image = apply_gather(*g, series_field(q_, out));
+    const World& world = *views_->world;
+    r.image = apply_gather(*g, series_field(q_, out),
+                           patch_emission(q_, e, world.patches(), world.scene()));
     r.gather_seconds = watch.seconds();
   }
   if (!r.image.all_finite()) throw NumericalError("the relit image has non-finite pixels");

@@ -30,18 +30,22 @@ void render_iterative(RenderResult& r, const RenderOptions& o) {
     throw NumericalError(solution.message.empty() ? "the solution is not finite"
                                                   : solution.message);
   if (solution.status == SolveStatus::kNotConverged) throw NumericalError(solution.message);
-  const Gather gather = build_gather(*r.world, t.layout(), o.gather);
+  // A final gather's rows are built block by block where they are applied, never held whole.
+  const Gather gather = o.gather.kind == GatherKind::kFinal
+                            ? defer_gather(*r.world, r.world->camera(), t.layout(), o.gather)
+                            : build_gather(*r.world, t.layout(), o.gather);
   Stopwatch watch;
-  r.image = gather_image(gather, solution.u);
-  const double apply_seconds = watch.seconds();
+  GatherWork work;
+  r.image = gather_image(gather, solution.u, *r.world, &work);
+  const double apply_seconds = watch.seconds() - work.seconds;
 
   Report& rep = r.report;
   rep.system = r.system->summary();
   rep.seconds.insert(rep.seconds.end(), r.system->times.begin(), r.system->times.end());
   rep.seconds.push_back({"solve", solution.seconds});
-  rep.seconds.push_back({"gather_build", gather.seconds});
+  rep.seconds.push_back({"gather_build", gather.seconds + work.seconds});
   rep.seconds.push_back({"gather_apply", apply_seconds});
-  rep.gather = summarize(gather);
+  rep.gather = summarize(gather, work);
   r.u = std::move(solution.u);
   solution.u.resize(0, 3);
   rep.solve = std::move(solution);
@@ -86,8 +90,8 @@ void render_pathtrace(RenderResult& r, const RenderOptions& o) {
 
 }  // namespace
 
-Image gather_image(const Gather& gather, const Field& u) {
-  Image image = apply_gather(gather, u);
+Image gather_image(const Gather& gather, const Field& u, const World& world, GatherWork* work) {
+  Image image = apply_gather(gather, u, scene_emission(world.patches()), work);
   if (!image.all_finite()) throw NumericalError("the image has non-finite pixels");
   return image;
 }

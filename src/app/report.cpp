@@ -9,8 +9,9 @@
 
 namespace polyrad {
 
-GatherSummary summarize(const Gather& g) {
-  return {g.options, g.rays, static_cast<long long>(g.g.nnz()), g.bytes(), g.seconds};
+GatherSummary summarize(const Gather& g, const GatherWork& work) {
+  if (g.deferred) return {g.options, work.rays, work.nnz, work.bytes, work.seconds};
+  return {g.options, g.rays, static_cast<long long>(g.g.nnz() + g.e.nnz()), g.bytes(), g.seconds};
 }
 
 double mean_relative_standard_error(const PathTraceResult& r) {

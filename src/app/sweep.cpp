@@ -167,7 +167,8 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
   if (!converged.ok())
     throw NumericalError("patch size " + std::to_string(patch_size) +
                          ": the converged solution failed: " + converged.message);
-  const Image converged_image = apply_gather(gather, converged.u);
+  const std::vector<Rgb> emission = scene_emission(world.patches());
+  const Image converged_image = apply_gather(gather, converged.u, emission);
   const double converged_seconds = converged_watch.seconds();
   auto solution_error = [&](const Field& u) {
     return norm_e > 0.0 ? t.flux_norm(converged.u - u) / norm_e : kNaN;
@@ -218,7 +219,7 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
       Image image;
       const RepeatTimes times = time_repeats(f.repeats, [&] {
         result = solve(t, e, so);
-        image = apply_gather(gather, result.u);
+        image = apply_gather(gather, result.u, emission);
       });
       if (result.status == SolveStatus::kDiverged) throw NumericalError(result.message);
       SweepRow r = base_row(enum_name(m));
@@ -264,10 +265,10 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
           q = precompute_series(t, world, so, &gather);
         }
         const double precompute_seconds = precompute_watch.seconds();
-        const std::vector<float> emission = q.column_emission();
+        const std::vector<float> columns = q.column_emission();
         std::vector<float> out(3 * static_cast<size_t>(q.rows()));
         const RepeatTimes times =
-            time_repeats(f.repeats, [&] { q.apply(emission.data(), out.data()); });
+            time_repeats(f.repeats, [&] { q.apply(columns.data(), out.data()); });
         const Image image = series_image(q, out);
         SweepRow r = base_row("series");
         r.order = order;

@@ -91,19 +91,68 @@ SystemOptions SystemFlags::system() const {
   return o;
 }
 
+namespace {
+
+std::string number_text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+}  // namespace
+
 void GatherFlags::add(CLI::App& app) {
-  add_enum_option(app, "--diffuse", options.diffuse, "Diffuse shading in the image");
-  app.add_option("--pixel-grid", options.pixel_grid, "Sub-pixel rays per side")
-      ->check(CLI::Range(1, 16))
-      ->capture_default_str();
-  app.add_option("--lobe-samples", options.lobe_samples, "Gather samples of a glossy lobe")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-  app.add_option("--light-samples", options.light_samples,
-                 "Gather points on the lights per glossy hit, weighted against the lobe samples "
-                 "(0: lobe samples alone)")
-      ->check(CLI::Range(0, 4096))
-      ->capture_default_str();
+  const GatherOptions patch, final = GatherOptions::final_gather();
+  auto both = [](double p, double f) {
+    return " (default " + number_text(p) + " for the patch gather, " + number_text(f) +
+           " for the final)";
+  };
+  auto final_only = [](double f) { return " (default " + number_text(f) + ")"; };
+  add_enum_option(app, "--gather", kind,
+                  "How pixels read the solution: final (direct light and first bounce per pixel, "
+                  "the mesh one bounce away) or patch (each pixel reads the patches it sees)");
+  app.add_option("--diffuse", diffuse,
+                 "How B is read where the image meets a patch (patch gather, default smooth) or "
+                 "where a gather sample lands (final gather, default flat: each patch's own mean, "
+                 "which keeps the flux a sample reads)")
+      ->check(CLI::IsMember(enum_names<DiffuseMode>()));
+  app.add_option("--pixel-grid", pixel_grid,
+                 "Sub-pixel rays per side" + both(patch.pixel_grid, final.pixel_grid))
+      ->check(CLI::Range(1, 16));
+  app.add_option("--lobe-samples", lobe_samples,
+                 "Samples of a glossy lobe" + both(patch.lobe_samples, final.lobe_samples))
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--light-samples", light_samples,
+                 "Points on the lights per glossy hit (patch gather) or per sub-pixel ray's hit "
+                 "(final gather), weighted against the BRDF samples (0: BRDF samples alone)" +
+                     both(patch.light_samples, final.light_samples))
+      ->check(CLI::Range(0, 4096));
+  app.add_option("--gather-samples", gather_samples,
+                 "Final gather: cosine samples of a diffuse surface per sub-pixel ray" +
+                     final_only(final.gather_samples))
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--near-samples", near_samples,
+                 "Final gather: light points and cosine samples of the second gather where a "
+                 "sample lands near the point it left (0: read the patch there)" +
+                     final_only(final.near_samples))
+      ->check(CLI::Range(0, 4096));
+  app.add_option("--near-distance", near_distance,
+                 "Final gather: near means within this many diameters of the patch met, blended "
+                 "out at twice the distance" +
+                     final_only(final.near_distance))
+      ->check(CLI::Range(0.0, 1e9));
+}
+
+GatherOptions GatherFlags::options() const {
+  GatherOptions o = kind == GatherKind::kPatch ? GatherOptions{} : GatherOptions::final_gather();
+  if (!diffuse.empty()) o.diffuse = enum_from_name<DiffuseMode>(diffuse);
+  if (pixel_grid > 0) o.pixel_grid = pixel_grid;
+  if (lobe_samples > 0) o.lobe_samples = lobe_samples;
+  if (light_samples >= 0) o.light_samples = light_samples;
+  if (gather_samples > 0) o.gather_samples = gather_samples;
+  if (near_samples >= 0) o.near_samples = near_samples;
+  if (near_distance >= 0.0) o.near_distance = near_distance;
+  return o;
 }
 
 std::map<std::string, Rgb> parse_emissions(const std::vector<std::string>& texts) {

@@ -61,10 +61,17 @@ struct SystemFlags {
   SystemOptions system() const;
 };
 
-// The camera gather's flags, for `render` and `precompute`.
+// The camera gather's flags, for `render`, `precompute` and `sweep`. Counts left unset (-1, and
+// an unset diffuse mode) take the kind's defaults: GatherOptions{} for the patch gather,
+// GatherOptions::final_gather() for the final gather.
 struct GatherFlags {
-  GatherOptions options;
+  GatherKind kind = GatherKind::kFinal;
+  std::string diffuse;
+  int pixel_grid = -1, lobe_samples = -1, light_samples = -1, gather_samples = -1,
+      near_samples = -1;
+  double near_distance = -1.0;
   void add(CLI::App& app);
+  GatherOptions options() const;
 };
 
 // NAME=R,G,B, repeatable, into a map; a name given twice, malformed text, or a negative or

@@ -23,7 +23,7 @@ int run_precompute(PrecomputeFlags& f) {
   o.scene = f.system.scene();
   o.overrides = f.system.overrides();
   o.system = f.system.system();
-  o.series.gather = f.gather.options;
+  o.series.gather = f.gather.options();
   PrecomputeResult r = precompute(f.scene, o);
   print_warnings(r.report.system->lobes);
   const double write_seconds = time_seconds([&] { write_prt(r.op, f.output); });

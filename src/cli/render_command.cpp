@@ -56,7 +56,7 @@ int run_render(RenderFlags& f) {
   o.overrides = f.system.overrides();
   o.system = f.system.system();
   o.solve.tolerance = o.series.tolerance = f.tolerance;
-  o.gather = f.gather.options;
+  o.gather = f.gather.options();
   const RenderResult r = render(f.scene, o);
   if (r.report.system) print_warnings(r.report.system->lobes);
   write_image(r.image, f.output, ImageWriteOptions{f.exposure});

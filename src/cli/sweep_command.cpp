@@ -17,7 +17,7 @@ struct SweepFlags {
 };
 
 int run_sweep(SweepFlags& f) {
-  f.options.gather = f.gather.options;
+  f.options.gather = f.gather.options();
   const SweepResult r = sweep(f.scene, f.options);
   std::fprintf(stderr, "polyrad sweep: %lld points in %.1f s; wrote %s/sweep.csv, %s/machine.txt\n",
                r.points, r.seconds, f.options.out.c_str(), f.options.out.c_str());

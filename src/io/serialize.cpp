@@ -56,10 +56,16 @@ SceneOverrides read_scene_overrides(const JsonValue& v) {
 
 void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
   w.begin_object(key)
+      .value("kind", enum_name(o.kind))
       .value("diffuse", enum_name(o.diffuse))
       .value("pixel_grid", o.pixel_grid)
       .value("lobe_samples", o.lobe_samples)
       .value("light_samples", o.light_samples)
+      .value("gather_samples", o.gather_samples)
+      .value("mirror_depth", o.mirror_depth)
+      .value("emission_grid", o.emission_grid)
+      .value("near_samples", o.near_samples)
+      .value("near_distance", o.near_distance)
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
 }
@@ -74,6 +80,17 @@ GatherOptions read_gather_options(const JsonValue& v) {
   o.light_samples =
       r.has("light_samples") ? static_cast<int>(r.integer("light_samples", 0, 4096)) : 0;
   o.seed = static_cast<std::uint64_t>(r.integer("seed", 0, 9e15));
+  // Written before the final gather existed: a patch gather, the counts unused.
+  if (r.has("kind")) {
+    o.kind = read_enum<GatherKind>(r, "kind");
+    o.gather_samples = static_cast<int>(r.integer("gather_samples", 1, 65536));
+    o.mirror_depth = static_cast<int>(r.integer("mirror_depth", 0, 64));
+    o.emission_grid = static_cast<int>(r.integer("emission_grid", 1, 16));
+    o.near_samples = static_cast<int>(r.integer("near_samples", 0, 65536));
+    o.near_distance = r.number("near_distance");
+    if (!(o.near_distance >= 0.0 && o.near_distance < 1e300))
+      throw InputError(v.where, "the gather's near_distance is out of range");
+  }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;
 }

@@ -1,93 +1,119 @@
-// Camera gather (camera_gather.h).
+// Camera gather (render/camera_gather.h): the patch gather, and the rows of either kind built
+// in blocks of pixels.
 #include "polyrad/render/camera_gather.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "polyrad/scene/brdf.h"
+#include "gather_terms.h"
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/util/error.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
 #include "polyrad/util/timer.h"
-#include "polyrad/world/light_sampling.h"
 
 namespace polyrad {
 
-namespace {
+namespace gather_detail {
 
-struct Term {
-  std::int32_t column;
-  Rgbf w;
-};
-
-// For smooth shading: each patch corner as a weighted average of patches (same object, normals
-// within 10 degrees) that share the welded corner.
-class CornerAverages {
- public:
-  // Weights are the exposed areas (flux weights / pi): a buried patch does not darken its
-  // neighbours' corners.
-  CornerAverages(const PatchSet& patches, const std::vector<double>& flux_weight)
-      : patches_(patches) {
-    std::vector<std::vector<PatchId>> by_vertex(patches.vertex_ids);
-    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
-      for (int c = 0; c < patches[p].corners; ++c) {
-        auto& list = by_vertex[patches[p].vertex_id[c]];
-        if (list.empty() || list.back() != p) list.push_back(p);
-      }
-    start_.assign(4 * patches.size() + 1, 0);
-    for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p) {
-      for (int c = 0; c < 4; ++c) {
-        const auto& list = by_vertex[patches[p].vertex_id[std::min(c, patches[p].corners - 1)]];
-        double total = 0.0;
-        size_t first = entries_.size();
-        for (PatchId q : list) {
-          if (patches[q].normal.dot(patches[p].normal) < std::cos(10.0 * kPi / 180.0)) continue;
-          entries_.push_back({q, flux_weight[q]});
-          total += flux_weight[q];
-        }
-        for (size_t e = first; e < entries_.size(); ++e)
-          entries_[e].second = total > 0.0 ? entries_[e].second / total : 0.0;
-        start_[4 * p + c + 1] = entries_.size();
-      }
+CornerAverages::CornerAverages(const PatchSet& patches, const std::vector<double>& flux_weight)
+    : patches_(patches) {
+  POLYRAD_CHECK(flux_weight.size() >= patches.size());
+  std::vector<std::vector<PatchId>> by_vertex(patches.vertex_ids);
+  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
+    for (int c = 0; c < patches[p].corners; ++c) {
+      auto& list = by_vertex[patches[p].vertex_id[c]];
+      if (list.empty() || list.back() != p) list.push_back(p);
     }
-  }
-
-  // Adds w * (smoothly interpolated B at (u, v) on p) to terms.
-  void add(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
-    auto cw = patches_[p].corner_weights(u, v);
+  start_.assign(4 * patches.size() + 1, 0);
+  for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p) {
     for (int c = 0; c < 4; ++c) {
-      if (cw[c] == 0.0) continue;
-      for (auto e = start_[4 * p + c]; e < start_[4 * p + c + 1]; ++e) {
-        float s = static_cast<float>(cw[c] * entries_[e].second);
-        terms.push_back({entries_[e].first, {w[0] * s, w[1] * s, w[2] * s}});
+      const auto& list = by_vertex[patches[p].vertex_id[std::min(c, patches[p].corners - 1)]];
+      double total = 0.0;
+      size_t first = entries_.size();
+      for (PatchId q : list) {
+        if (patches[q].normal.dot(patches[p].normal) < std::cos(10.0 * kPi / 180.0)) continue;
+        entries_.push_back({q, flux_weight[q]});
+        total += flux_weight[q];
       }
+      for (size_t e = first; e < entries_.size(); ++e)
+        entries_[e].second = total > 0.0 ? entries_[e].second / total : 0.0;
+      start_[4 * p + c + 1] = entries_.size();
     }
   }
-
- private:
-  const PatchSet& patches_;
-  std::vector<std::size_t> start_;
-  std::vector<std::pair<PatchId, double>> entries_;
-};
-
-Rgbf scaled(const Rgb& c, double s) {
-  return {static_cast<float>(c[0] * s), static_cast<float>(c[1] * s), static_cast<float>(c[2] * s)};
 }
+
+void CornerAverages::add(PatchId p, double u, double v, const Rgbf& w,
+                         std::vector<Term>& terms) const {
+  auto cw = patches_[p].corner_weights(u, v);
+  for (int c = 0; c < 4; ++c) {
+    if (cw[c] == 0.0) continue;
+    for (auto e = start_[4 * p + c]; e < start_[4 * p + c + 1]; ++e) {
+      float s = static_cast<float>(cw[c] * entries_[e].second);
+      terms.push_back({entries_[e].first, {w[0] * s, w[1] * s, w[2] * s}});
+    }
+  }
+}
+
+void CornerAverages::subtract_emission(PatchId p, double u, double v, const Rgbf& w,
+                                       std::vector<Term>& terms) const {
+  auto cw = patches_[p].corner_weights(u, v);
+  for (int c = 0; c < 4; ++c) {
+    if (cw[c] == 0.0) continue;
+    for (auto e = start_[4 * p + c]; e < start_[4 * p + c + 1]; ++e) {
+      if (!patches_[entries_[e].first].emitter) continue;
+      float s = -static_cast<float>(cw[c] * entries_[e].second);
+      terms.push_back({entries_[e].first, {w[0] * s, w[1] * s, w[2] * s}});
+    }
+  }
+}
+
+void add_diffuse(const GatherContext& c, PatchId p, double u, double v, const Rgbf& w,
+                 std::vector<Term>& terms) {
+  const bool smooth = c.options.diffuse == DiffuseMode::kSmooth;
+  if (const ElementHierarchy* h = c.layout.hierarchy.get()) {
+    thread_local std::vector<std::pair<std::int32_t, double>> weights;
+    weights.clear();
+    h->diffuse_weights(p, u, v, smooth, weights);
+    for (const auto& [leaf, s] : weights)
+      terms.push_back({leaf,
+                       {static_cast<float>(w[0] * s), static_cast<float>(w[1] * s),
+                        static_cast<float>(w[2] * s)}});
+    return;
+  }
+  if (smooth)
+    c.corners.add(p, u, v, w, terms);
+  else
+    terms.push_back({p, w});
+}
+
+void merge_terms(std::vector<Term>& terms) {
+  std::sort(terms.begin(), terms.end(),
+            [](const Term& a, const Term& b) { return a.column < b.column; });
+  size_t w = 0;
+  for (size_t r = 0; r < terms.size(); ++r) {
+    if (w > 0 && terms[w - 1].column == terms[r].column) {
+      for (int c = 0; c < 3; ++c) terms[w - 1].w[c] += terms[r].w[c];
+    } else {
+      terms[w++] = terms[r];
+    }
+  }
+  terms.resize(w);
+}
+
+namespace {
 
 class PixelGatherer {
  public:
-  PixelGatherer(const Camera& camera, const PatchSet& patches,
-                const std::vector<Material>& materials, const RayCaster& caster,
-                const UnknownLayout& t, const GatherOptions& o, const CornerAverages& corners,
-                const LightSampler& lights)
-      : camera_(camera),
-        patches_(patches),
-        materials_(materials),
-        caster_(caster),
-        t_(t),
-        o_(o),
-        corners_(corners),
-        lights_(lights) {}
+  explicit PixelGatherer(const GatherContext& c)
+      : context_(c),
+        camera_(c.camera),
+        patches_(c.patches),
+        materials_(c.materials),
+        caster_(c.caster),
+        t_(c.layout),
+        o_(c.options),
+        lights_(c.lights) {}
 
   // The terms of pixel (x, y); returns the number of rays cast.
   long long gather(int x, int y, std::vector<Term>& terms) const {
@@ -135,21 +161,7 @@ class PixelGatherer {
   }
 
   void add_diffuse(PatchId p, double u, double v, const Rgbf& w, std::vector<Term>& terms) const {
-    if (const ElementHierarchy* h =
-            t_.hierarchy.get()) {  // the leaf (or its corners) under the hit
-      thread_local std::vector<std::pair<std::int32_t, double>> weights;
-      weights.clear();
-      h->diffuse_weights(p, u, v, o_.diffuse == DiffuseMode::kSmooth, weights);
-      for (const auto& [leaf, s] : weights)
-        terms.push_back({leaf,
-                         {static_cast<float>(w[0] * s), static_cast<float>(w[1] * s),
-                          static_cast<float>(w[2] * s)}});
-      return;
-    }
-    if (o_.diffuse == DiffuseMode::kSmooth)
-      corners_.add(p, u, v, w, terms);
-    else
-      terms.push_back({p, w});
+    gather_detail::add_diffuse(context_, p, u, v, w, terms);
   }
   // Radiance arriving at i from point (u, v) of patch j, times w: w (B_j + S_{j->i}).
   void add_arriving(PatchId j, double u, double v, PatchId i, const Rgbf& w,
@@ -219,88 +231,239 @@ class PixelGatherer {
     return rays;
   }
 
+  const GatherContext& context_;
   const Camera& camera_;
   const PatchSet& patches_;
   const std::vector<Material>& materials_;
   const RayCaster& caster_;
   const UnknownLayout& t_;
   const GatherOptions& o_;
-  const CornerAverages& corners_;
   const LightSampler& lights_;
 };
 
-void merge_terms(std::vector<Term>& terms) {
-  std::sort(terms.begin(), terms.end(),
-            [](const Term& a, const Term& b) { return a.column < b.column; });
-  size_t w = 0;
-  for (size_t r = 0; r < terms.size(); ++r) {
-    if (w > 0 && terms[w - 1].column == terms[r].column) {
-      for (int c = 0; c < 3; ++c) terms[w - 1].w[c] += terms[r].w[c];
-    } else {
-      terms[w++] = terms[r];
-    }
-  }
-  terms.resize(w);
-}
-
 }  // namespace
 
-Gather build_gather(const World& world, const UnknownLayout& t, const GatherOptions& options) {
-  return build_gather(world, world.camera(), t, options);
+long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms) {
+  terms.clear();
+  return PixelGatherer(c).gather(x, y, terms.unknowns);
 }
 
-Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& t,
+}  // namespace gather_detail
+
+using namespace gather_detail;
+
+// The rows of a gather, built for any range of pixels: the shared state (corner averages, light
+// sampler) is made once. Both gathers key their random streams by (pixel, sub-pixel ray), so a
+// row is the same whichever block, thread or call builds it.
+class GatherRows {
+ public:
+  GatherRows(const World& world, const Camera& camera, const UnknownLayout& layout,
+             const GatherOptions& options)
+      : camera_(camera),
+        options_(options),
+        corners_(world.patches(), corner_weights(world, layout)),
+        context_{camera_, world.patches(), world.materials(), world.caster(),
+                 layout,  options_,        corners_,          world.lights()},
+        unknowns_(layout.size()),
+        patches_(static_cast<std::int64_t>(world.patches().size())) {
+    if (options.pixel_grid < 1 || options.pixel_grid > 16)
+      throw InputError("gather: pixel_grid must be in [1, 16]");
+    if (options.lobe_samples < 1) throw InputError("gather: lobe_samples must be at least 1");
+    if (options.light_samples < 0) throw InputError("gather: light_samples must not be negative");
+    if (options.kind == GatherKind::kFinal && options.gather_samples < 1)
+      throw InputError("final gather: gather_samples must be at least 1");
+    if (options.mirror_depth < 0 || options.mirror_depth > 64)
+      throw InputError("final gather: mirror_depth must be in [0, 64]");
+    if (options.emission_grid < 1 || options.emission_grid > 16)
+      throw InputError("final gather: emission_grid must be in [1, 16]");
+    if (options.near_samples < 0)
+      throw InputError("final gather: near_samples must not be negative");
+    if (!(options.near_distance >= 0.0))
+      throw InputError("final gather: near_distance must not be negative");
+  }
+
+  int width() const { return camera_.width; }
+  int height() const { return camera_.height; }
+  const GatherOptions& options() const { return options_; }
+
+  // Rows [r0, r1) into g and e (replaced), in parallel over image rows of pixels; returns the
+  // rays cast. Each thread merges a pixel's terms in its own scratch and appends the merged row
+  // to the piece of the block it is building, so nothing is allocated per pixel.
+  long long build(std::int64_t r0, std::int64_t r1, Csr<Rgbf>& g, Csr<Rgbf>& e,
+                  Progress* progress = nullptr) const {
+    const std::int64_t w = camera_.width;
+    const bool final_gather = options_.kind == GatherKind::kFinal;
+    struct Piece {
+      Csr<Rgbf> g, e;
+    };
+    const std::int64_t chunk = w;  // pixels per piece: one image row
+    const std::int64_t pieces = (r1 - r0 + chunk - 1) / chunk;
+    std::vector<Piece> piece(pieces);
+    long long rays = 0;
+#pragma omp parallel
+    {
+      PixelTerms terms;
+#pragma omp for schedule(dynamic, 1) reduction(+ : rays)
+      for (std::int64_t k = 0; k < pieces; ++k) {
+        Piece& out = piece[k];
+        for (std::int64_t r = r0 + k * chunk; r < std::min(r1, r0 + (k + 1) * chunk); ++r) {
+          const int x = static_cast<int>(r % w), y = static_cast<int>(r / w);
+          rays += final_gather ? final_gather_pixel(context_, x, y, terms)
+                               : patch_gather_pixel(context_, x, y, terms);
+          merge_terms(terms.unknowns);
+          merge_terms(terms.emission);
+          append_row(terms.unknowns, out.g);
+          if (final_gather) append_row(terms.emission, out.e);
+        }
+        if (progress) progress->advance();
+      }
+    }
+    g = Csr<Rgbf>{};
+    e = Csr<Rgbf>{};
+    g.cols = unknowns_;
+    e.cols = final_gather ? patches_ : 0;
+    std::size_t ng = 0, ne = 0;
+    for (const Piece& p : piece) {
+      ng += p.g.column.size();
+      ne += p.e.column.size();
+    }
+    g.column.reserve(ng);
+    g.value.reserve(ng);
+    e.column.reserve(ne);
+    e.value.reserve(ne);
+    for (Piece& p : piece) {
+      append(p.g, g);
+      p.g = Csr<Rgbf>{};
+      if (final_gather) append(p.e, e);
+      p.e = Csr<Rgbf>{};
+    }
+    return rays;
+  }
+
+ private:
+  // The patches' weights in their corners' averages: their flux weights where they are the
+  // unknowns, their areas under a hierarchy (whose leaves are read through the hierarchy; the
+  // patches' averages then serve the emission's interpolation only).
+  static std::vector<double> corner_weights(const World& world, const UnknownLayout& layout) {
+    if (!layout.hierarchy) return layout.flux_weight;
+    std::vector<double> weight(world.patches().size());
+    for (size_t p = 0; p < weight.size(); ++p) weight[p] = world.patches()[p].area;
+    return weight;
+  }
+  // Appends one merged row, without the entries whose weights are all zero (a final-gather
+  // shading ray whose path class no finer ray met is weighted zero).
+  static void append_row(const std::vector<Term>& terms, Csr<Rgbf>& m) {
+    for (const Term& t : terms) {
+      if (t.w[0] == 0.0f && t.w[1] == 0.0f && t.w[2] == 0.0f) continue;
+      m.column.push_back(t.column);
+      m.value.push_back(t.w);
+    }
+    m.push_row();
+  }
+  // Appends the rows of `from` to `to`.
+  static void append(const Csr<Rgbf>& from, Csr<Rgbf>& to) {
+    const std::int64_t base = static_cast<std::int64_t>(to.column.size());
+    to.column.insert(to.column.end(), from.column.begin(), from.column.end());
+    to.value.insert(to.value.end(), from.value.begin(), from.value.end());
+    for (std::int64_t r = 0; r < from.rows; ++r) to.start.push_back(base + from.start[r + 1]);
+    to.rows += from.rows;
+  }
+
+  const Camera camera_;
+  const GatherOptions options_;
+  const CornerAverages corners_;
+  const GatherContext context_;
+  const Eigen::Index unknowns_;
+  const std::int64_t patches_;
+};
+
+Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options) {
+  return build_gather(world, world.camera(), layout, options);
+}
+
+Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
                     const GatherOptions& options) {
   const Stopwatch watch;
-  const PatchSet& patches = world.patches();
-  // A hierarchy's leaves have corner averages of their own; the patches' are then not read.
-  static const PatchSet kNoPatches;
-  const CornerAverages corners(t.hierarchy ? kNoPatches : patches, t.flux_weight);
-  const LightSampler& lights = world.lights();
-  const RayCaster& caster = world.caster();
-  const std::vector<Material>& materials = world.materials();
-  PixelGatherer gatherer(camera, patches, materials, caster, t, options, corners, lights);
-  const int w = camera.width, h = camera.height;
-  std::vector<std::vector<Term>> rows(static_cast<size_t>(w) * h);
-  long long rays = 0;
-  Progress progress("camera gather", h);
-#pragma omp parallel
-  {
-    std::vector<Term> terms;
-#pragma omp for schedule(dynamic, 1) reduction(+ : rays)
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        rays += gatherer.gather(x, y, terms);
-        merge_terms(terms);
-        rows[static_cast<size_t>(y) * w + x] = terms;
-      }
-      progress.advance();
-    }
-  }
-  progress.finish();
+  GatherRows rows(world, camera, layout, options);
   Gather g;
-  g.width = w;
-  g.height = h;
+  g.width = camera.width;
+  g.height = camera.height;
   g.options = options;
-  g.g.cols = t.size();
-  for (const auto& row : rows) {
-    for (const auto& term : row) {
-      g.g.column.push_back(term.column);
-      g.g.value.push_back(term.w);
-    }
-    g.g.push_row();
-  }
-  g.rays = rays;
+  Progress progress(options.kind == GatherKind::kFinal ? "final gather" : "camera gather",
+                    camera.height);
+  g.rays =
+      rows.build(0, static_cast<std::int64_t>(camera.width) * camera.height, g.g, g.e, &progress);
+  progress.finish();
   g.seconds = watch.seconds();
   return g;
 }
 
-Image apply_gather(const Gather& gather, const Field& u) {
+Gather defer_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
+                    const GatherOptions& options) {
+  Gather g;
+  g.width = camera.width;
+  g.height = camera.height;
+  g.options = options;
+  g.deferred = std::make_shared<const GatherRows>(world, camera, layout, options);
+  return g;
+}
+
+GatherWork for_each_gather_block(
+    const Gather& gather, std::int64_t block_pixels,
+    const std::function<void(std::int64_t, const Csr<Rgbf>&, const Csr<Rgbf>&)>& f) {
+  GatherWork work;
+  if (!gather.deferred) {
+    work.nnz = gather.g.nnz() + gather.e.nnz();
+    work.bytes = gather.bytes();
+    f(0, gather.g, gather.e);
+    return work;
+  }
+  const GatherRows& rows = *gather.deferred;
+  const std::int64_t w = rows.width(), total = w * rows.height();
+  // Whole image rows per block, so each block's pieces are whole rows too.
+  const std::int64_t block = std::max<std::int64_t>(1, block_pixels / w) * w;
+  Progress progress(rows.options().kind == GatherKind::kFinal ? "final gather" : "camera gather",
+                    rows.height());
+  Csr<Rgbf> g, e;
+  for (std::int64_t r0 = 0; r0 < total; r0 += block) {
+    const std::int64_t r1 = std::min(total, r0 + block);
+    const Stopwatch watch;
+    work.rays += rows.build(r0, r1, g, e, &progress);
+    work.seconds += watch.seconds();
+    work.nnz += g.nnz() + e.nnz();
+    work.bytes = std::max(work.bytes, g.bytes() + e.bytes());
+    f(r0, g, e);
+  }
+  progress.finish();
+  return work;
+}
+
+std::vector<Rgb> scene_emission(const PatchSet& patches) {
+  std::vector<Rgb> e(patches.size());
+  for (size_t p = 0; p < patches.size(); ++p) e[p] = patches[p].emission;
+  return e;
+}
+
+Image apply_gather(const Gather& gather, const Field& u, const std::vector<Rgb>& emission,
+                   GatherWork* work) {
   Image img(gather.width, gather.height);
-  std::vector<double> y(3 * static_cast<std::size_t>(gather.g.rows));
-  gather.g.multiply(u.data(), 3, y.data());
-  std::transform(y.begin(), y.end(), img.rgb.begin(),
-                 [](double v) { return static_cast<float>(v); });
+  const GatherWork done = for_each_gather_block(
+      gather, kGatherBlockPixels, [&](std::int64_t r0, const Csr<Rgbf>& g, const Csr<Rgbf>& e) {
+        if (e.nnz() > 0 && emission.size() != static_cast<size_t>(e.cols))
+          throw InputError("apply_gather: the final gather needs one emission per patch (" +
+                           std::to_string(e.cols) + "), given " + std::to_string(emission.size()));
+#pragma omp parallel for schedule(static)
+        for (std::int64_t p = 0; p < g.rows; ++p) {
+          double a[3] = {0.0, 0.0, 0.0};
+          for (auto k = g.start[p]; k < g.start[p + 1]; ++k)
+            for (int c = 0; c < 3; ++c) a[c] += g.value[k][c] * u(g.column[k], c);
+          if (p < e.rows)
+            for (auto k = e.start[p]; k < e.start[p + 1]; ++k)
+              for (int c = 0; c < 3; ++c) a[c] += e.value[k][c] * emission[e.column[k]][c];
+          for (int c = 0; c < 3; ++c) img.rgb[3 * (r0 + p) + c] = static_cast<float>(a[c]);
+        }
+      });
+  if (work) *work = done;
   return img;
 }
 

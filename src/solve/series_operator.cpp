@@ -232,8 +232,7 @@ std::vector<std::string> SeriesOperator::light_names() const {
   return names;
 }
 
-std::vector<float> SeriesOperator::column_emission(
-    const std::map<std::string, Rgb>& lights) const {
+std::vector<float> SeriesOperator::column_emission(const std::map<std::string, Rgb>& lights) const {
   std::vector<std::string> names = light_names();
   for (const auto& [name, value] : lights)
     if (std::find(names.begin(), names.end(), name) == names.end()) {
@@ -248,6 +247,25 @@ std::vector<float> SeriesOperator::column_emission(
     for (int ch = 0; ch < 3; ++ch) e[3 * c + ch] = static_cast<float>(v[ch]);
   }
   return e;
+}
+
+std::vector<Rgb> patch_emission(const SeriesMetadata& q, const std::vector<float>& e,
+                                const PatchSet& patches, const Scene& scene) {
+  POLYRAD_CHECK(e.size() == 3 * q.columns.size());
+  std::vector<Rgb> out(patches.size(), Rgb::Zero());
+  for (size_t c = 0; c < q.columns.size(); ++c) {
+    const Rgb v(e[3 * c], e[3 * c + 1], e[3 * c + 2]);
+    const SeriesColumn& col = q.columns[c];
+    if (col.patch >= 0) {
+      POLYRAD_CHECK(static_cast<size_t>(col.patch) < patches.size());
+      out[col.patch] = v;
+      continue;
+    }
+    const ObjectId obj = scene.find_object(col.object);
+    for (size_t p = 0; p < patches.size(); ++p)
+      if (patches[p].object == obj) out[p] = v;
+  }
+  return out;
 }
 
 Image series_image(const SeriesOperator& q, const std::vector<float>& out) {

@@ -173,24 +173,40 @@ std::unique_ptr<PermutedTransport> reordered_transport(const TransportOperator& 
   return permuted;
 }
 
-// The patches of T's B unknowns: the world's, or its hierarchy's leaves.
-const PatchSet& unknown_patches(const TransportOperator& t, const World& world) {
-  return t.layout().hierarchy ? t.layout().hierarchy->leaves() : world.patches();
-}
-
-// Which patches each column lights: its patch, or every patch of its object.
-std::vector<std::vector<PatchId>> lit_patches(const std::vector<SeriesColumn>& columns,
-                                              const PatchSet& patches, const Scene& scene) {
-  std::vector<std::vector<PatchId>> lit(columns.size());
+// The column that lights each world patch (-1: none): its own (patch basis) or its object's.
+std::vector<int> patch_columns(const std::vector<SeriesColumn>& columns, const World& world) {
+  const PatchSet& patches = world.patches();
+  std::vector<int> column_of(patches.size(), -1);
   for (size_t c = 0; c < columns.size(); ++c) {
     if (columns[c].patch >= 0) {
-      lit[c].push_back(columns[c].patch);
+      column_of[columns[c].patch] = static_cast<int>(c);
       continue;
     }
-    const ObjectId obj = scene.find_object(columns[c].object);
+    const ObjectId obj = world.scene().find_object(columns[c].object);
     for (PatchId p = 0; p < static_cast<PatchId>(patches.size()); ++p)
-      if (patches[p].object == obj) lit[c].push_back(p);
+      if (patches[p].object == obj) column_of[p] = static_cast<int>(c);
   }
+  return column_of;
+}
+
+// The world patch of each B unknown: itself, or the root its leaf lies under (a hierarchy's).
+std::vector<PatchId> unknown_roots(const TransportOperator& t, const World& world) {
+  const ElementHierarchy* h = t.layout().hierarchy.get();
+  std::vector<PatchId> root(t.num_patches());
+  for (PatchId u = 0; u < static_cast<PatchId>(root.size()); ++u)
+    root[u] = h ? h->elements()[h->element_of_leaf(u)].root : u;
+  (void)world;
+  return root;
+}
+
+// Which B unknowns each column lights: those of its patch, or of every patch of its object.
+std::vector<std::vector<PatchId>> lit_unknowns(const std::vector<SeriesColumn>& columns,
+                                               const std::vector<PatchId>& root,
+                                               const World& world) {
+  std::vector<int> column_of = patch_columns(columns, world);
+  std::vector<std::vector<PatchId>> lit(columns.size());
+  for (PatchId u = 0; u < static_cast<PatchId>(root.size()); ++u)
+    if (const int c = column_of[root[u]]; c >= 0) lit[c].push_back(u);
   return lit;
 }
 
@@ -314,7 +330,7 @@ SeriesOperator operator_shell(const TransportOperator& t, const World& world,
   q.output = o.output;
   q.basis = o.basis;
   q.precision = o.precision;
-  q.columns = series_columns(unknown_patches(t, world), world.scene(), o.basis);
+  q.columns = series_columns(world.patches(), world.scene(), o.basis);
   if (q.columns.empty())
     throw InputError("the scene has no emitting object: nothing to precompute");
   q.layout = t.layout();
@@ -348,6 +364,43 @@ void fill_report(SeriesReport& rep, const SeriesOperator& q, const TransportOper
   rep.bytes = q.bytes();
 }
 
+// The pixels of view rows: the given gather's, or the world camera's.
+std::int64_t pixels(const World& world, const Gather* gather) {
+  return gather ? static_cast<std::int64_t>(gather->width) * gather->height
+                : static_cast<std::int64_t>(world.camera().width) * world.camera().height;
+}
+
+// The view rows of each column batch, Q = E S + G P_K S (papers/glossy-radiosity.md, eq. 12):
+// sums[b] is P_K S of batch b, column_of[p] the column whose S lights patch p (or -1). The
+// gather is read block by block, once for all batches; a deferred one's build time goes to the
+// report.
+std::vector<FieldBlock> view_rows(const Gather& gather, const std::vector<FieldBlock>& sums,
+                                  const std::vector<int>& column_of, int batch, std::int64_t rows,
+                                  SeriesReport* report) {
+  std::vector<FieldBlock> out;
+  for (const auto& s : sums) out.push_back(FieldBlock::Zero(rows, s.cols()));
+  const GatherWork work = for_each_gather_block(
+      gather, kGatherBlockPixels, [&](std::int64_t r0, const Csr<Rgbf>& g, const Csr<Rgbf>& e) {
+#pragma omp parallel for schedule(dynamic, 64)
+        for (std::int64_t r = 0; r < g.rows; ++r) {
+          for (size_t b = 0; b < sums.size(); ++b) {
+            const Eigen::Index w = sums[b].cols();
+            g.accumulate_row(r, sums[b].data(), w, out[b].data() + w * (r0 + r));
+          }
+          if (r >= e.rows) continue;
+          for (auto [patch, value] : e.row(r)) {
+            const int col = column_of[patch];
+            if (col < 0) continue;  // not an emitter of any column: emits nothing in S
+            double* y =
+                out[col / batch].data() + out[col / batch].cols() * (r0 + r) + 3 * (col % batch);
+            for (int ch = 0; ch < 3; ++ch) y[ch] += value[ch];
+          }
+        }
+      });
+  report->gather_seconds = work.seconds + gather.seconds;
+  return out;
+}
+
 }  // namespace
 
 std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene,
@@ -373,7 +426,7 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);
   auto unknown = [&](PatchId p) { return permuted ? permuted->permutation().position[p] : p; };
   const std::vector<std::vector<PatchId>> lit =
-      lit_patches(q.columns, unknown_patches(t, world), world.scene());
+      lit_unknowns(q.columns, unknown_roots(t, world), world);
 
   Field s = Field::Zero(t.size(), 3);
   for (const auto& list : lit)
@@ -382,23 +435,15 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   double rho = o.chebyshev_radius;
   const Terms terms = chebyshev ? choose_chebyshev_order(t, s, o, &rho) : choose_order(t, s, o);
 
-  std::unique_ptr<Gather> own_gather;
-  const Gather* gather = given_gather;
-  if (view && !gather) {
-    own_gather = std::make_unique<Gather>(build_gather(world, t.layout(), o.gather));
-    gather = own_gather.get();
-  }
-  if (view) {  // a given gather may be of another camera than the world's
-    q.width = gather->width;
-    q.height = gather->height;
-    q.report.gather_seconds = gather->seconds;
-  }
-  const std::int64_t rows = view ? static_cast<std::int64_t>(q.width) * q.height : t.size();
+  const std::int64_t rows = view ? pixels(world, given_gather) : t.size();
   const std::vector<double>* flux = view ? nullptr : &t.flux_weight();
   RowPieces pieces(rows);
   const int batch = std::max(1, o.column_batch);
   Progress progress("series precompute", (cols + batch - 1) / batch * (terms.order + 1),
                     o.progress);
+  // P_K S of each batch of columns. Solution rows are kept as they come; view rows wait for
+  // the gather, which is then read once, block by block, for every batch (view_rows).
+  std::vector<FieldBlock> sums;
   for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
     const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
     FieldBlock term = FieldBlock::Zero(t.size(), 3 * width);
@@ -410,17 +455,28 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
         permuted ? permuted->to_original(block_polynomial(*permuted, std::move(term), terms.order,
                                                           chebyshev, rho, progress))
                  : block_polynomial(t, std::move(term), terms.order, chebyshev, rho, progress);
-    // The rows: the unknowns themselves, or the pixels through the gather.
-    FieldBlock out;
-    if (view) {
-      out.resize(rows, 3 * width);
-      gather->g.multiply(acc.data(), acc.cols(), out.data());
-    } else {
-      out.swap(acc);
-    }
-    pieces.add(out, c0, width, q.columns, drop_thresholds(out, width, o.drop, flux), flux);
+    if (view)
+      sums.push_back(std::move(acc));
+    else
+      pieces.add(acc, c0, width, q.columns, drop_thresholds(acc, width, o.drop, flux), flux);
   }
   progress.finish();
+  if (view) {
+    const Gather gather =
+        given_gather ? *given_gather : defer_gather(world, world.camera(), t.layout(), o.gather);
+    q.width = gather.width;  // a given gather may be of another camera than the world's
+    q.height = gather.height;
+    q.gather = gather.options;  // what made the rows
+    const std::vector<int> column_of = patch_columns(q.columns, world);
+    std::vector<FieldBlock> out = view_rows(gather, sums, column_of, batch, rows, &q.report);
+    sums.clear();
+    for (size_t b = 0; b < out.size(); ++b) {
+      const int width = static_cast<int>(out[b].cols() / 3);
+      const std::int64_t c0 = static_cast<std::int64_t>(b) * batch;
+      pieces.add(out[b], c0, width, q.columns, drop_thresholds(out[b], width, o.drop, flux), flux);
+      out[b] = FieldBlock();
+    }
+  }
   pieces.assemble(q);
   fill_report(q.report, q, t, terms, o, rho, pieces);
   q.report.seconds = watch.seconds();

@@ -2,6 +2,7 @@
 #include "polyrad/world/light_sampling.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "polyrad/util/error.h"
 
@@ -24,9 +25,12 @@ LightSampler::LightSampler(const PatchSet& patches, const std::vector<double>& w
   if (!cdf_.empty()) cdf_.back() = 1.0;
 }
 
-LightSample LightSampler::sample(double u_select, const Vec2& u_point) const {
-  auto e = static_cast<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), u_select) - cdf_.begin());
-  e = std::min(e, emitters_.size() - 1);
+size_t LightSampler::choose(double u) const {
+  auto e = static_cast<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), u) - cdf_.begin());
+  return std::min(e, emitters_.size() - 1);
+}
+
+LightSample LightSampler::point_on(size_t e, const Vec2& u_point) const {
   LightSample s;
   s.patch = emitters_[e];
   const Patch& light = patches_[s.patch];
@@ -34,6 +38,17 @@ LightSample LightSampler::sample(double u_select, const Vec2& u_point) const {
   s.point = light.sample(u_point, &density, &s.uv);
   s.area_pdf = density > 0.0 ? select_pdf_[s.patch] / (light.area * density) : 0.0;
   return s;
+}
+
+LightSample LightSampler::sample(double u_select, const Vec2& u_point) const {
+  return point_on(choose(u_select), u_point);
+}
+
+LightSample LightSampler::sample(const Vec2& u) const {
+  const size_t e = choose(u.x());
+  const double lo = e > 0 ? cdf_[e - 1] : 0.0, width = cdf_[e] - lo;
+  const double x = width > 0.0 ? std::clamp((u.x() - lo) / width, 0.0, std::nextafter(1.0, 0.0)) : 0.5;
+  return point_on(e, Vec2(x, u.y()));
 }
 
 double LightSampler::area_pdf(PatchId p, const Vec3& y) const {

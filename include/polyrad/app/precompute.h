@@ -20,11 +20,20 @@
 
 namespace polyrad {
 
+// The series options of a precompute: the final gather (the library's SeriesOptions default to
+// the patch gather, as it has always built).
+inline SeriesOptions precompute_series_defaults() {
+  SeriesOptions o;
+  o.gather = GatherOptions::final_gather();
+  return o;
+}
+
 struct PrecomputeOptions {
   SceneOptions scene;
   SceneOverrides overrides;
   SystemOptions system;
-  SeriesOptions series;  // its gather: folded into view rows, or recorded for solution rows
+  // Its gather: folded into view rows, or recorded for solution rows.
+  SeriesOptions series = precompute_series_defaults();
 };
 
 struct PrecomputeResult {

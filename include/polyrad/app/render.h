@@ -44,10 +44,10 @@ struct RenderOptions {
   SceneOptions scene;
   SceneOverrides overrides;
   SystemOptions system;
-  SolveOptions solve;          // iterative
-  SeriesOptions series;        // series (its output is always view rows)
-  PathTraceOptions pathtrace;  // pathtrace
-  GatherOptions gather;        // iterative and series
+  SolveOptions solve;                                    // iterative
+  SeriesOptions series;                                  // series (its output is always view rows)
+  PathTraceOptions pathtrace;                            // pathtrace
+  GatherOptions gather = GatherOptions::final_gather();  // iterative and series
 };
 
 struct RenderResult {
@@ -61,7 +61,9 @@ struct RenderResult {
 
 RenderResult render(const std::string& scene_path, const RenderOptions& options);
 
-// The image of a solution through a gather, checked finite.
-Image gather_image(const Gather& gather, const Field& u);
+// The image of a solution through a gather (with the scene's emission, which a final gather
+// reads), checked finite; work, when given, receives what reading the gather cost.
+Image gather_image(const Gather& gather, const Field& u, const World& world,
+                   GatherWork* work = nullptr);
 
 }  // namespace polyrad

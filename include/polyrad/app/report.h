@@ -33,7 +33,8 @@ struct GatherSummary {
   std::size_t bytes = 0;
   double seconds = 0.0;
 };
-GatherSummary summarize(const Gather& g);
+// work: what reading a deferred gather cost (its rows are built where they are read).
+GatherSummary summarize(const Gather& g, const GatherWork& work = {});
 
 // A path-traced image: the options that matter for reproducing it and what it cost.
 struct PathTraceSummary {

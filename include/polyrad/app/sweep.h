@@ -37,7 +37,7 @@ struct SweepOptions {
   std::vector<int> spp{1, 4, 16, 64};
   int reference_spp = 1024;
   int repeats = 5;
-  GatherOptions gather;  // the gather of every radiosity image
+  GatherOptions gather = GatherOptions::final_gather();  // the gather of every radiosity image
 };
 
 struct SweepResult {

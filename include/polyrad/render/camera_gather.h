@@ -1,25 +1,46 @@
-// The camera gather: each pixel as a fixed linear combination of the unknowns, image = G u.
+// The camera gather: each pixel as a fixed linear combination of the unknowns and of the
+// patches' emission, image = G u + E e (papers/glossy-radiosity.md, section 7).
 //
-// Per primary ray hitting patch i at x, seen from direction v (papers/glossy-radiosity.md,
-// section 7):
+// Two kinds. The patch gather (GatherKind::kPatch; E is empty) reads the solution where each
+// primary ray of the pixel meets patch i at x, seen from direction v:
 //   diffuse part  B_i (flat) or B interpolated from the corners of i (smooth: each corner
 //                 averages the patches of the same object and orientation that share it);
 //   mirror part   s_i * L_{j->i}, j met by the reflected ray;
 //   glossy part   s_i * mean over a fixed set of lobe samples of beta * L_{j->i}, combined by
 //                 multiple importance with a fixed set of points on the lights (patches of
-//                 objects with an "emission" key, drawn by area): the lobe samples alone
-//                 rarely find a small lamp, so a rough surface under it comes out speckled;
-// with L_{j->i} = B_j + S_{j->i}. Pixels average a fixed grid of sub-pixel rays. Nothing here
-// depends on the values of u, so the view-mode precompute folds G into its operator.
+//                 objects with an "emission" key, drawn by area);
+// with L_{j->i} = B_j + S_{j->i}. Every shadow is then as wide as a patch.
 //
-//   Gather g = build_gather(*world, t.layout(), {});      // the scene's camera
-//   Image img = apply_gather(g, solution.u);
+// The final gather (GatherKind::kFinal, section 7.1) computes the pixel's light at its own
+// surface point and uses the mesh only one bounce away. Along each shading ray's chain of
+// mirrors (delta lobes, up to mirror_depth bounces), at every hit x on patch i (eq. 11):
+//   L(x, v) = Le_i + integral f Le(y) cos_x dw                          (direct; E)
+//           + integral f (B~_j(y) - E~_j(y) + S_{j->i}) cos_x dw        (first bounce; G, -E)
+// The direct term takes stratified points on the lights with shadow rays, weighted by the
+// power heuristic against the BRDF samples (cosine samples for the diffuse part, lobe samples
+// for the glossy part); those same samples read the reflected light where they land, and when
+// they land on a light, their weighted share of its Le. Emission is read once, in E. Near hits
+// gather the diffuse light there again; Le of what a pixel sees comes from a finer grid of rays.
+// With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
 //
-// Cost: pixels x sub-pixel rays x (1 + lobe samples + light samples) rays to build; memory 16
-// bytes per entry.
+// Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
+// operator: Q = E S + G P_K S (eq. 12).
+//
+//   Gather g = build_gather(*world, t.layout(), GatherOptions::final_gather());
+//   Image img = apply_gather(g, solution.u, scene_emission(world->patches()));
+//
+// Cost: the patch gather casts pixels x sub-pixel rays x (1 + lobe samples + light samples)
+// rays. The final gather casts per pixel emission_grid^2 rays, then per shading ray and hit
+// light samples + gather samples (diffuse part) + lobe samples (glossy part), and 2
+// near_samples more where a sample lands near: about 760 rays a pixel on cornell-box with the
+// defaults. Memory 16 bytes per entry after merging each pixel's equal columns (a final gather:
+// about 190 entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather
+// (defer_gather) is never stored whole, its rows are built block by block where they are used.
 #pragma once
 
 #include <array>
+#include <functional>
+#include <memory>
 
 #include "polyrad/render/image.h"
 #include "polyrad/scene/camera.h"
@@ -38,32 +59,103 @@ struct EnumNames<DiffuseMode> {
       {{DiffuseMode::kSmooth, "smooth"}, {DiffuseMode::kFlat, "flat"}}};
 };
 
+enum class GatherKind { kPatch, kFinal };
+template <>
+struct EnumNames<GatherKind> {
+  static constexpr const char* kind = "gather";
+  static constexpr std::array<std::pair<GatherKind, const char*>, 2> table{
+      {{GatherKind::kPatch, "patch"}, {GatherKind::kFinal, "final"}}};
+};
+
+// GatherOptions{} is the patch gather, as the library has always built it;
+// GatherOptions::final_gather() the final gather, which the command line defaults to.
 struct GatherOptions {
+  GatherKind kind = GatherKind::kPatch;
   DiffuseMode diffuse = DiffuseMode::kSmooth;
   int pixel_grid = 2;     // sub-pixel rays per side (2: four rays a pixel)
-  int lobe_samples = 16;  // fixed lobe samples of a glossy hit
-  int light_samples = 4;  // points on the lights per glossy hit (0: the lobe samples alone)
+  int lobe_samples = 16;  // lobe samples of a glossy hit (rounded to a square)
+  // Points on the lights: per glossy hit (patch gather; 0: the lobe samples alone), per
+  // non-delta hit (final gather; 0: the lights are found by the BRDF samples alone).
+  int light_samples = 4;
+  int gather_samples = 16;  // final gather: cosine samples of a diffuse part (rounded to a square)
+  int mirror_depth = 4;     // final gather: delta bounces traced before reading L_{j->i}
+  // Final gather: jittered rays per side that find the emitters a pixel sees (directly or in
+  // mirrors), finer than pixel_grid because a lamp's edge pixels are far brighter than its
+  // surroundings.
+  int emission_grid = 8;
+  // Final gather: where a BRDF sample lands within near_distance diameters of the patch it
+  // meets, the diffuse light reflected there is gathered again (near_samples light points and
+  // cosine samples, rounded to a square; 0: never) instead of read from that patch's B; blended
+  // linearly to reading B at twice the distance.
+  int near_samples = 4;
+  double near_distance = 1.0;
   std::uint64_t seed = 11;
+
+  // The final gather with the counts the sample study chose (README, "The final gather"):
+  // flat reads (each patch's mean keeps the flux a sample reads, where the smooth interpolation
+  // moves light off bright patches), 64 cosine samples and 64 light points per sub-pixel ray.
+  static GatherOptions final_gather() {
+    GatherOptions o;
+    o.kind = GatherKind::kFinal;
+    o.diffuse = DiffuseMode::kFlat;
+    o.gather_samples = 64;
+    o.light_samples = 64;
+    return o;
+  }
 };
 
 using Rgbf = std::array<float, 3>;
 
+class GatherRows;
+
 struct Gather {
   int width = 0, height = 0;
   GatherOptions options;  // what built it
-  Csr<Rgbf> g;            // row = pixel (row-major from the top-left), column = unknown
+  Csr<Rgbf> g;  // row = pixel (row-major from the top-left), column = unknown
+  Csr<Rgbf> e;  // final gather: row = pixel, column = patch (its emission); empty otherwise
   long long rays = 0;
   double seconds = 0.0;
-  std::size_t bytes() const { return g.bytes(); }
+  // Set by defer_gather: g and e are not stored, their rows are built where they are used.
+  std::shared_ptr<const GatherRows> deferred;
+  std::size_t bytes() const { return g.bytes() + e.bytes(); }
 };
 
 // The gather of the world's camera, or of another camera (a solution operator relit from
-// elsewhere).
-Gather build_gather(const World& world, const UnknownLayout& layout,
-                    const GatherOptions& options = {});
+// elsewhere), built whole.
+Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options = {});
 Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
                     const GatherOptions& options = {});
 
-Image apply_gather(const Gather& gather, const Field& u);
+// The same gather with its rows built on demand, block by block (for_each_gather_block), so
+// that a final gather, with many entries per pixel, never needs to be held whole. Keeps
+// references to world and layout, which must outlive it.
+Gather defer_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
+                    const GatherOptions& options = {});
+
+// Pixels in a block of a deferred gather's rows, where the library reads one (apply_gather, the
+// view precompute): about 12 MB for a final gather of cornell-box.
+inline constexpr std::int64_t kGatherBlockPixels = 4096;
+
+// Calls f(first_row, g_rows, e_rows) over the gather's rows in order: once with everything for
+// a stored gather; for a deferred one, for blocks of about block_pixels pixels, each built (in
+// parallel) just before the call and released after it. e_rows has no rows for a patch gather.
+// Returns what the rows cost.
+struct GatherWork {
+  long long rays = 0;     // cast to build them (0 for a stored gather)
+  double seconds = 0.0;   // spent building them
+  long long nnz = 0;      // entries of G and E
+  std::size_t bytes = 0;  // the most held at once
+};
+GatherWork for_each_gather_block(
+    const Gather& gather, std::int64_t block_pixels,
+    const std::function<void(std::int64_t, const Csr<Rgbf>&, const Csr<Rgbf>&)>& f);
+
+// The scene's emission of each patch, as apply_gather takes it.
+std::vector<Rgb> scene_emission(const PatchSet& patches);
+
+// image = G u + E emission; emission has one RGB value per patch and is required when E is not
+// empty (the final gather). Reads a deferred gather block by block.
+Image apply_gather(const Gather& gather, const Field& u, const std::vector<Rgb>& emission = {},
+                   GatherWork* work = nullptr);
 
 }  // namespace polyrad

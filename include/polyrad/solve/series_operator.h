@@ -175,6 +175,12 @@ class SeriesOperator : public SeriesMetadata {
   std::shared_ptr<const void> keep_;
 };
 
+// The emission of each patch for column emission e (3 floats per column, as apply takes it):
+// what a final gather reads beside a solution-mode product's Field (apply_gather). patches are
+// the world's the operator was made on, scene its scene.
+std::vector<Rgb> patch_emission(const SeriesMetadata& q, const std::vector<float>& e,
+                                const PatchSet& patches, const Scene& scene);
+
 // Image of a view-mode product (rows = pixels), or the Field of a solution-mode one.
 Image series_image(const SeriesOperator& q, const std::vector<float>& out);
 Field series_field(const SeriesOperator& q, const std::vector<float>& out);

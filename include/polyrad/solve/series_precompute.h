@@ -2,7 +2,7 @@
 // radiosity.md, section 6): K applications of T to the columns of S, restricted to the rows
 // the caller wants.
 //
-//   Q = G P_K S,   P_K = sum_{n=0..K} T^n
+//   Q = E S + G P_K S,   P_K = sum_{n=0..K} T^n
 //
 // S: one column per emitting patch (unit emission), grouped by the emitting object's name.
 // Rows: `view`, the pixels of the world's camera through the gather G (built here from
@@ -52,12 +52,14 @@ struct SeriesOptions {
 };
 
 // The columns of S for a set of patches.
-// patches: those of the B unknowns (the world's, or a hierarchy's leaves, which keep their
-// root's object and emission).
+// The columns of S over the world's patches: one per emitting patch, or per emitting object.
+// (With a hierarchical mesh a patch's column lights every leaf under it.)
 std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene, SeriesBasis basis);
 
-// Runs the precompute. View rows fold in `gather` when given (it must have been built from
-// options.gather for this world and T), else a gather built here. Throws NumericalError if the
+// Runs the precompute. View rows, Q = E S + G P_K S (eq. 12), fold in `gather` when given (it
+// must have been built from options.gather for this world and T), else a gather of the world's
+// camera whose rows are built here block by block (defer_gather), so that a final gather is
+// never held whole. Throws NumericalError if the
 // term norms grow (the series diverges), InputError if the world has no light.
 SeriesOperator precompute_series(const TransportOperator& t, const World& world,
                                  const SeriesOptions& options, const Gather* gather = nullptr);

@@ -47,10 +47,17 @@ class LightSampler {
   // u_select in [0, 1) picks the patch (so stratifying it stratifies the choice); u_point the
   // point on it. Requires !empty().
   LightSample sample(double u_select, const Vec2& u_point) const;
+  // One point of the unit square for both: u.x picks the patch and, rescaled within that
+  // patch's share of [0, 1), becomes the point's first coordinate. A stratified grid of u then
+  // stays stratified over the lights (over both coordinates of a single patch), where separate
+  // draws would leave the points on each patch independent. Requires !empty().
+  LightSample sample(const Vec2& u) const;
   // The area density sample() has at point y of patch p.
   double area_pdf(PatchId p, const Vec3& y) const;
 
  private:
+  size_t choose(double u) const;  // the emitter index u falls on
+  LightSample point_on(size_t e, const Vec2& u_point) const;
   const PatchSet& patches_;
   std::vector<PatchId> emitters_;  // patches with a positive weight
   std::vector<double> cdf_;        // cumulative selection probability, last = 1

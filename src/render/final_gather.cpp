@@ -1,0 +1,481 @@
+// The final gather (render/camera_gather.h, GatherKind::kFinal; papers/glossy-radiosity.md,
+// section 7.1).
+//
+// Per pixel, a grid of finer rays finds the emission Le it sees along chains of delta lobes
+// (mirrors, up to mirror_depth bounces) (E). Per shading ray, along the same kind of chain, at
+// each surface point met, for the non-delta parts of its BRDF, the direct light and the first
+// bounce (eq. 11):
+//   - light samples: a stratified grid of points on the lights, drawn by area (LightSampler),
+//     each f Le_j cos_x / p_light with a shadow ray, weighted against the BRDF samples;
+//   - BRDF samples: cosine samples for the diffuse part d (weight d each), lobe samples for the
+//     glossy part s (weight s beta each). Where one lands on patch j at y it reads the reflected
+//     radiance toward i, B~_j(y) - E~_j(y) + S_{j->i} (G, and -E), and, when j is a light, its
+//     weighted share of Le_j (E).
+// The multiple-importance weights are the power heuristic over each part's own pair of
+// strategies (Veach's thesis, eq. 9.13, with the sample counts): for the diffuse part, light
+// points against cosine samples; for the glossy part, light points against lobe samples. Each
+// part is then estimated without bias on its own, and the weights of a direction sum to one.
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "gather_terms.h"
+#include "polyrad/util/sampling.h"
+
+namespace polyrad::gather_detail {
+
+namespace {
+
+// A grid of side x side strata on the unit square, as close to `count` points as a square gets.
+int grid_side(int count) { return std::max(1, static_cast<int>(std::lround(std::sqrt(count)))); }
+
+class FinalGatherer {
+ public:
+  explicit FinalGatherer(const GatherContext& c)
+      : c_(c),
+        o_(c.options),
+        diffuse_side_(grid_side(o_.gather_samples)),
+        lobe_side_(grid_side(o_.lobe_samples)),
+        light_count_(c.lights.empty() ? 0 : o_.light_samples),
+        light_side_(static_cast<int>(std::sqrt(static_cast<double>(light_count_)))),
+        near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
+        near_count_(near_side_ * near_side_) {}
+
+  // The pixel: Le of what its emission_grid^2 finer rays see along their mirror chains, and the
+  // light reflected there from its pixel_grid^2 shading rays. Each shading ray stands for the
+  // finer rays whose chain meets the same objects (a chain's "path class"), weighted by their
+  // share of the pixel: the emission and the reflected light of every part of the pixel then
+  // come from the same area, which a furnace checks to the pixel (with the two estimated
+  // separately, a pixel across the edge between a mirror and a diffuse wall was off by several
+  // percent). A path class no shading ray found is shaded once from one of its finer rays.
+  long long gather(int x, int y, PixelTerms& terms) const {
+    terms.clear();
+    long long rays = 0;
+    const int n = o_.pixel_grid, g = o_.emission_grid;
+    const auto pixel = static_cast<std::uint64_t>(y) * c_.camera.width + x;
+    PathClasses classes;
+    for (int m = 0; m < g * g; ++m) {
+      const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, nullptr);
+      std::uint64_t key = 0;
+      rays += emission_along(ray, 1.0 / (g * g), terms, &key);
+      classes.add_fine(key, m);
+    }
+    std::array<Shaded, kMaxShadingRays> shaded;
+    for (int k = 0; k < n * n; ++k) {
+      Rng rng(o_.seed, pixel, static_cast<std::uint64_t>(k));
+      const Ray ray = pixel_ray(x, y, pixel, n, k, &rng);
+      shaded[k] = {terms.unknowns.size(), terms.emission.size(), 0, 0, 0};
+      rays += follow(ray, SubPixel{pixel, k}, rng, terms, &shaded[k].key);
+      shaded[k].unknowns_end = terms.unknowns.size();
+      shaded[k].emission_end = terms.emission.size();
+      classes.add_shading(shaded[k].key);
+    }
+    for (int k = 0; k < n * n; ++k) {
+      const PathClasses::Class& c = classes.find(shaded[k].key);
+      const double w = c.fine > 0 ? static_cast<double>(c.fine) / (g * g) / c.shading : 0.0;
+      scale(terms.unknowns, shaded[k].unknowns_begin, shaded[k].unknowns_end, w);
+      scale(terms.emission, shaded[k].emission_begin, shaded[k].emission_end, w);
+    }
+    for (int c = 0; c < classes.size(); ++c) {
+      const PathClasses::Class& cl = classes[c];
+      if (cl.shading > 0 || cl.fine == 0) continue;
+      const int m = cl.first_fine;
+      Rng rng(o_.seed, pixel, static_cast<std::uint64_t>(n * n + m));
+      const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, &rng);
+      const std::size_t u0 = terms.unknowns.size(), e0 = terms.emission.size();
+      std::uint64_t key = 0;
+      rays += follow(ray, SubPixel{pixel, m % (n * n)}, rng, terms, &key);
+      const double w = static_cast<double>(cl.fine) / (g * g);
+      scale(terms.unknowns, u0, terms.unknowns.size(), w);
+      scale(terms.emission, e0, terms.emission.size(), w);
+    }
+    return rays;
+  }
+
+ private:
+  // Which shading ray of which pixel is being followed.
+  struct SubPixel {
+    std::uint64_t pixel;
+    int index;  // in [0, pixel_grid^2)
+  };
+  // A surface point being shaded.
+  struct Shading {
+    PatchId i;
+    const Material& m;
+    Frame frame;
+    Vec3 x, wo;  // the point, and the direction it is seen from (local frame)
+    Rgb weight;  // the mirrors' reflectances along the chain (gather() scales the whole ray)
+    SubPixel sub;
+  };
+  enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2 };
+
+  // Sample s of a side x side grid on the unit square, jittered by (j1, j2), stratified over the
+  // whole pixel: each cell of the grid is cut into pixel_grid^2 finer cells and each shading
+  // ray takes one of them, so that the pixel's rays together cover a grid pixel_grid times
+  // finer per side. Which ray takes which finer cell is turned by a hash of (pixel, strategy,
+  // cell), so each ray's own sample is still uniform over its cell: every ray's estimator stays
+  // unbiased, and their mean is stratified pixel_grid^2 times finer.
+  Vec2 stratum(const SubPixel& sub, int strategy, int s, int side, double j1, double j2) const {
+    const int n = o_.pixel_grid, cells = n * n;
+    const int cx = s % side, cy = s / side;
+    const std::uint64_t h =
+        mix64(o_.seed ^ mix64(sub.pixel * 4 + static_cast<std::uint64_t>(strategy)) ^
+              static_cast<std::uint64_t>(s));
+    const int f = static_cast<int>((static_cast<std::uint64_t>(sub.index) + h % cells) % cells);
+    const double fine = static_cast<double>(side) * n;
+    return Vec2((cx * n + f % n + j1) / fine, (cy * n + f / n + j2) / fine);
+  }
+
+  static constexpr int kMaxShadingRays = 16 * 16;  // pixel_grid <= 16
+  static constexpr int kMaxFineRays = 16 * 16;     // emission_grid <= 16
+
+  // Where a shading ray's terms lie in the pixel's lists, and its path class.
+  struct Shaded {
+    std::size_t unknowns_begin, emission_begin, unknowns_end, emission_end;
+    std::uint64_t key;
+  };
+
+  // The path classes met by a pixel's rays: how many finer and shading rays each has. At most
+  // one class per ray, so fixed arrays and a linear search (a pixel meets a handful).
+  class PathClasses {
+   public:
+    struct Class {
+      std::uint64_t key;
+      int fine, shading, first_fine;
+    };
+    void add_fine(std::uint64_t key, int m) {
+      Class& c = at(key);
+      if (c.fine++ == 0) c.first_fine = m;
+    }
+    void add_shading(std::uint64_t key) { ++at(key).shading; }
+    const Class& find(std::uint64_t key) { return at(key); }
+    int size() const { return n_; }
+    const Class& operator[](int i) const { return classes_[i]; }
+
+   private:
+    Class& at(std::uint64_t key) {
+      for (int i = 0; i < n_; ++i)
+        if (classes_[i].key == key) return classes_[i];
+      classes_[n_] = {key, 0, 0, -1};
+      return classes_[n_++];
+    }
+    std::array<Class, kMaxShadingRays + kMaxFineRays> classes_;
+    int n_ = 0;
+  };
+
+  static void scale(std::vector<Term>& terms, std::size_t begin, std::size_t end, double w) {
+    const auto f = static_cast<float>(w);
+    for (std::size_t t = begin; t < end; ++t)
+      for (float& v : terms[t].w) v *= f;
+  }
+
+  // Cell (ray mod side^2) of a side x side grid over the pixel, at a jittered point: the pixel's
+  // mean over its area, as the path-traced reference takes it (and no ray that meets an edge of the
+  // scene exactly for every pixel along a line of symmetry: a point exactly on an edge lies, to
+  // rounding, behind the wall it meets, and its gather rays see only back sides). The jitter is
+  // the first two draws of the stream keyed by (pixel, ray); rng, when given, continues it.
+  Ray pixel_ray(int x, int y, std::uint64_t pixel, int side, int ray, Rng* rng) const {
+    Rng own(o_.seed, pixel, static_cast<std::uint64_t>(ray));
+    Rng& r = rng ? *rng : own;
+    const double ja = r.uniform32(), jb = r.uniform32();
+    const int cell = ray % (side * side);
+    return c_.camera.ray(x + (cell / side + ja) / side, y + (cell % side + jb) / side);
+  }
+
+  // The path class of a hit sequence: the objects a ray meets along its chain of delta lobes.
+  static std::uint64_t add_to_key(std::uint64_t key, std::int64_t object) {
+    return mix64(key ^ static_cast<std::uint64_t>(object + 2));
+  }
+
+  // Le along a finer ray's chain (the hits follow() shades: depth 0 to mirror_depth along the
+  // delta lobes), w each times the mirrors' reflectances; *key its path class.
+  long long emission_along(const Ray& ray, double w, PixelTerms& terms, std::uint64_t* key) const {
+    Rgb weight = Rgb::Constant(w);
+    long long rays = 1;
+    Hit hit = c_.caster.intersect(ray.origin, ray.direction);
+    Vec3 dir = ray.direction;
+    *key = 0;
+    for (int depth = 0;; ++depth) {
+      if (!hit.valid() || !hit.front) {
+        *key = add_to_key(*key, -1);
+        return rays;
+      }
+      const Patch& p = c_.patches[hit.patch];
+      *key = add_to_key(*key, p.object);
+      if (p.emitter) terms.emission.push_back({hit.patch, scaled(weight, 1.0)});
+      const Material& m = c_.materials[p.material];
+      if (depth >= o_.mirror_depth || !m.has_lobe() || !m.is_delta()) return rays;
+      weight *= m.specular;
+      const Frame frame = Frame::from_normal(p.normal);
+      dir = frame.to_world(reflect_about_normal(frame.to_local(-dir)));
+      ++rays;
+      hit = c_.caster.intersect_from(hit.position, hit.patch, dir);
+    }
+  }
+
+  // A shading ray and its mirror chain, with unit weight (gather() scales it): the light
+  // reflected at each hit, Le left to the finer rays; *key its path class.
+  long long follow(const Ray& ray, const SubPixel& sub, Rng& rng, PixelTerms& terms,
+                   std::uint64_t* key) const {
+    Rgb weight = Rgb::Ones();
+    long long rays = 1;
+    Hit hit = c_.caster.intersect(ray.origin, ray.direction);
+    Vec3 dir = ray.direction;
+    *key = 0;
+    for (int depth = 0;; ++depth) {
+      if (!hit.valid() || !hit.front) {  // left the scene, or met a back side: black
+        *key = add_to_key(*key, -1);
+        return rays;
+      }
+      const Patch& p = c_.patches[hit.patch];
+      *key = add_to_key(*key, p.object);
+      const Material& m = c_.materials[p.material];
+      const Frame frame = Frame::from_normal(p.normal);
+      const Shading sh{hit.patch, m, frame, hit.position, frame.to_local(-dir), weight, sub};
+      if (sh.wo.z() > 0.0) rays += shade(sh, rng, terms);
+      if (depth >= o_.mirror_depth || !m.has_lobe() || !m.is_delta()) {
+        if (depth >= o_.mirror_depth && m.has_lobe() && m.is_delta())
+          rays += read_reflected(sh, weight * m.specular, terms);
+        return rays;
+      }
+      // The delta lobe: the reflected ray carries s times the radiance it meets.
+      weight *= m.specular;
+      dir = frame.to_world(reflect_about_normal(sh.wo));
+      ++rays;
+      hit = c_.caster.intersect_from(sh.x, sh.i, dir);
+    }
+  }
+
+  // Deep enough in a mirror chain: the radiance arriving along the mirror direction, read as the
+  // patch gather does, w L_{j->i} = w (B~_j + S_{j->i}) (emission included: nothing of j was
+  // counted yet).
+  long long read_reflected(const Shading& sh, const Rgb& w, PixelTerms& terms) const {
+    const Vec3 dir = sh.frame.to_world(reflect_about_normal(sh.wo));
+    const Hit next = c_.caster.intersect_from(sh.x, sh.i, dir);
+    if (next.valid() && next.front) {
+      const Rgbf wf = scaled(w, 1.0);
+      add_diffuse(next.patch, next.u, next.v, wf, terms);
+      add_link(next.patch, sh.i, wf, terms);
+    }
+    return 1;
+  }
+
+  // The non-delta parts of the BRDF at a point: direct light and first bounce.
+  long long shade(const Shading& sh, Rng& rng, PixelTerms& terms) const {
+    const Rgb d = sh.m.diffuse;
+    const bool diffuse = d.maxCoeff() > 0.0;
+    const bool lobe = sh.m.has_lobe() && !sh.m.is_delta();
+    if (!diffuse && !lobe) return 0;
+    const int nd = diffuse ? diffuse_side_ * diffuse_side_ : 0;
+    const int ns = lobe ? lobe_side_ * lobe_side_ : 0;
+    long long rays = 0;
+    if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
+    if (diffuse) rays += cosine_samples(sh, nd, rng, terms);
+    if (lobe) rays += lobe_samples(sh, ns, rng, terms);
+    return rays;
+  }
+
+  // Next-event estimation: points on the lights; only their emission is read here (the light a
+  // lamp reflects reaches x through the BRDF samples, as every other patch's does).
+  long long light_samples(const Shading& sh, bool diffuse, bool lobe, int nd, int ns, Rng& rng,
+                          PixelTerms& terms) const {
+    const int count = light_count_;
+    const Vec3& n = sh.frame.n;
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      // A side x side grid when count is a square, else count strata along the first
+      // coordinate (which picks the light patch).
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const Vec2 u = light_side_ * light_side_ == count
+                         ? stratum(sh.sub, kLightPoints, s, light_side_, j1, j2)
+                         : Vec2((s + j1) / count, j2);
+      const LightSample l = c_.lights.sample(u);
+      const Vec3 to = l.point - sh.x;
+      const double dist2 = to.squaredNorm();
+      if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;
+      const Vec3 wi = to / std::sqrt(dist2);
+      const double cos_x = wi.dot(n), cos_y = -wi.dot(c_.patches[l.patch].normal);
+      if (cos_x <= 0.0 || cos_y <= 0.0) continue;
+      const Vec3 wi_local = sh.frame.to_local(wi);
+      const double lobe_value = lobe ? sh.m.lobe_eval(wi_local, sh.wo) : 0.0;
+      if (!diffuse && !(lobe_value > 0.0)) continue;
+      ++rays;
+      if (c_.caster.segment_occluded(sh.x, sh.i, l.point, l.patch)) continue;
+      const double light_pdf = l.area_pdf * dist2 / cos_y;  // per unit solid angle
+      Rgb f = Rgb::Zero();                                  // f cos_x times each part's weight
+      if (diffuse)
+        f += sh.m.diffuse *
+             (kInvPi * cos_x * power_heuristic(count * light_pdf, nd * cos_x * kInvPi));
+      if (lobe_value > 0.0)
+        f += sh.m.specular *
+             (lobe_value * cos_x *
+              power_heuristic(count * light_pdf, ns * sh.m.lobe_pdf(wi_local, sh.wo)));
+      terms.emission.push_back({l.patch, scaled(sh.weight * f, 1.0 / (light_pdf * count))});
+    }
+    return rays;
+  }
+
+  // The diffuse part: d (cosine-weighted mean of the arriving radiance), by a stratified grid
+  // of cosine samples.
+  long long cosine_samples(const Shading& sh, int count, Rng& rng, PixelTerms& terms) const {
+    const int side = diffuse_side_;
+    long long rays = 0;
+    const Rgb w = sh.weight * sh.m.diffuse / count;
+    for (int s = 0; s < count; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const Vec3 wi = sample_cosine_hemisphere(stratum(sh.sub, kCosine, s, side, j1, j2));
+      if (!(wi.z() > 0.0)) continue;
+      const Vec3 dir = sh.frame.to_world(wi);
+      ++rays;
+      const Hit h = c_.caster.intersect_from(sh.x, sh.i, dir);
+      if (!h.valid() || !h.front) continue;
+      rays += add_arriving(sh, h, dir, w, wi.z() * kInvPi, count, rng, terms);
+    }
+    return rays;
+  }
+
+  // The glossy part: s times the mean of beta L over a stratified grid of lobe samples.
+  long long lobe_samples(const Shading& sh, int count, Rng& rng, PixelTerms& terms) const {
+    const int side = lobe_side_;
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const LobeSample ls = sh.m.lobe_sample(sh.wo, stratum(sh.sub, kLobe, s, side, j1, j2));
+      if (!(ls.weight > 0.0)) continue;
+      const Vec3 dir = sh.frame.to_world(ls.wi);
+      ++rays;
+      const Hit h = c_.caster.intersect_from(sh.x, sh.i, dir);
+      if (!h.valid() || !h.front) continue;
+      rays += add_arriving(sh, h, dir, sh.weight * sh.m.specular * (ls.weight / count), ls.pdf,
+                           count, rng, terms);
+    }
+    return rays;
+  }
+
+  // A BRDF sample from x along dir met h: w times the reflected radiance there toward i, and,
+  // at a light, w times its emission with this strategy's weight against the light points
+  // (pdf: this sample's solid-angle density, count: its strategy's sample count). Returns the
+  // rays a near hit's second gather cast.
+  long long add_arriving(const Shading& sh, const Hit& h, const Vec3& dir, const Rgb& w, double pdf,
+                         int count, Rng& rng, PixelTerms& terms) const {
+    const PatchId j = h.patch;
+    if (c_.patches[j].emitter) {
+      double mis = 1.0;
+      if (light_count_ > 0) {
+        const double dist2 = (h.position - sh.x).squaredNorm();
+        const double cos_y = -dir.dot(c_.patches[j].normal);
+        const double light_pdf = c_.lights.area_pdf(j, h.position) * dist2 / cos_y;
+        mis = power_heuristic(count * pdf, light_count_ * light_pdf);
+      }
+      if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
+    }
+    // The specular link toward i, and the diffuse part's reflected light: from the mesh,
+    // B~ - E~, or, where y is near x, by a second gather at y (with a blend between the two).
+    add_link(j, sh.i, scaled(w, 1.0), terms);
+    const double near = near_share(sh.x, h);
+    long long rays = 0;
+    if (near < 1.0) add_reflected(j, h.u, h.v, scaled(w, 1.0 - near), terms);
+    if (near > 0.0) rays += near_gather(h, -dir, w * near, rng, terms);
+    return rays;
+  }
+
+  // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects.
+  void add_reflected(PatchId j, double u, double v, const Rgbf& w, PixelTerms& terms) const {
+    add_diffuse(j, u, v, w, terms);
+    if (o_.diffuse == DiffuseMode::kSmooth) {
+      c_.corners.subtract_emission(j, u, v, w, terms.emission);
+    } else if (c_.patches[j].emitter) {
+      terms.emission.push_back({j, {-w[0], -w[1], -w[2]}});
+    }
+  }
+
+  // How much of the diffuse light reflected at h is gathered again there instead of read from
+  // the mesh: 1 within near_distance patch diameters of j from x, 0 beyond twice that, linear
+  // between. A patch's B averages its light over the patch: seen from closer than its size, the
+  // average is the wrong value (a floor patch half in a block's contact shadow, read from the
+  // block's base), which a gather one bounce further does not suffer.
+  double near_share(const Vec3& x, const Hit& h) const {
+    if (near_count_ == 0 || o_.near_distance <= 0.0) return 0.0;
+    const double r = (h.position - x).norm() / (o_.near_distance * c_.patches[h.patch].diameter());
+    return std::clamp(2.0 - r, 0.0, 1.0);
+  }
+
+  // The second gather at a near hit h on j, seen from direction wo (world): w d_j times the
+  // cosine-weighted mean of the radiance arriving at y, by near_samples light points (direct,
+  // emission) and near_samples cosine samples (emission with their weight, and the reflected
+  // light B~ - E~ + S_{k->j} where they land), combined as at the first hit.
+  long long near_gather(const Hit& h, const Vec3& wo, const Rgb& w, Rng& rng,
+                        PixelTerms& terms) const {
+    const PatchId j = h.patch;
+    const Patch& pj = c_.patches[j];
+    const Rgb wd = w * c_.materials[pj.material].diffuse;
+    if (!(wd.maxCoeff() > 0.0) || !(wo.dot(pj.normal) > 0.0)) return 0;
+    const Frame frame = Frame::from_normal(pj.normal);
+    const Vec3& y = h.position;
+    const int side = near_side_, count = near_count_;
+    const int lights = c_.lights.empty() ? 0 : count;
+    long long rays = 0;
+    for (int s = 0; s < lights; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const LightSample l = c_.lights.sample(Vec2((s % side + j1) / side, (s / side + j2) / side));
+      const Vec3 to = l.point - y;
+      const double dist2 = to.squaredNorm();
+      if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;
+      const Vec3 wi = to / std::sqrt(dist2);
+      const double cos_y = wi.dot(pj.normal), cos_l = -wi.dot(c_.patches[l.patch].normal);
+      if (cos_y <= 0.0 || cos_l <= 0.0) continue;
+      ++rays;
+      if (c_.caster.segment_occluded(y, j, l.point, l.patch)) continue;
+      const double light_pdf = l.area_pdf * dist2 / cos_l;
+      const double f = kInvPi * cos_y * power_heuristic(lights * light_pdf, count * cos_y * kInvPi);
+      terms.emission.push_back({l.patch, scaled(wd, f / (light_pdf * lights))});
+    }
+    for (int s = 0; s < count; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const Vec3 wi =
+          sample_cosine_hemisphere(Vec2((s % side + j1) / side, (s / side + j2) / side));
+      if (!(wi.z() > 0.0)) continue;
+      const Vec3 dir = frame.to_world(wi);
+      ++rays;
+      const Hit z = c_.caster.intersect_from(y, j, dir);
+      if (!z.valid() || !z.front) continue;
+      const Rgb wz = wd / count;
+      const PatchId k = z.patch;
+      if (c_.patches[k].emitter) {
+        double mis = 1.0;
+        if (lights > 0) {
+          const double cos_l = -dir.dot(c_.patches[k].normal);
+          const double light_pdf =
+              c_.lights.area_pdf(k, z.position) * (z.position - y).squaredNorm() / cos_l;
+          mis = power_heuristic(count * wi.z() * kInvPi, lights * light_pdf);
+        }
+        if (mis > 0.0) terms.emission.push_back({k, scaled(wz, mis)});
+      }
+      add_reflected(k, z.u, z.v, scaled(wz, 1.0), terms);
+      add_link(k, j, scaled(wz, 1.0), terms);
+    }
+    return rays;
+  }
+
+  // w times B at (u, v) of patch j, flat or smooth (or from the leaves under it).
+  void add_diffuse(PatchId j, double u, double v, const Rgbf& w, PixelTerms& terms) const {
+    gather_detail::add_diffuse(c_, j, u, v, w, terms.unknowns);
+  }
+  // w times S_{j->i}, where that link is an unknown.
+  void add_link(PatchId j, PatchId i, const Rgbf& w, PixelTerms& terms) const {
+    const Eigen::Index link = c_.layout.link_unknown(j, i);
+    if (link >= 0) terms.unknowns.push_back({static_cast<std::int32_t>(link), w});
+  }
+
+  const GatherContext& c_;
+  const GatherOptions& o_;
+  const int diffuse_side_, lobe_side_, light_count_, light_side_, near_side_, near_count_;
+};
+
+}  // namespace
+
+long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms) {
+  return FinalGatherer(c).gather(x, y, terms);
+}
+
+}  // namespace polyrad::gather_detail
