@@ -71,6 +71,63 @@ TEST(Cli, BadInputIsExitTwoWithOneLineAndNoOutput) {
   EXPECT_FALSE(std::filesystem::exists(img));
 }
 
+TEST(Cli, WorkThatCannotFitIsRefusedAtOnceWithTheEstimate) {
+  // The Cornell box seen at 8192 x 8192 (precompute) and 16384 x 16384 (render with the stored
+  // patch gather): the camera's share alone is tens of GiB, past any budget under 64 GiB; the
+  // refusal comes before the mesh is made, with exit 2, the estimate by part, and no output.
+  auto dir = test::temp_dir();
+  const std::filesystem::path scenes = std::filesystem::path(test::scene_path("cornell-box")).parent_path();
+  auto scene_at = [&](int side) {
+    std::string text = test::read_text(test::scene_path("cornell-box"));
+    for (const char* key : {"\"width\": 256", "\"height\": 256"}) {
+      const size_t at = text.find(key);
+      EXPECT_NE(at, std::string::npos) << key;
+      text.replace(at, std::string(key).size(),
+                   std::string(key).substr(0, std::string(key).find(':') + 2) + std::to_string(side));
+    }
+    for (size_t at = text.find("\"meshes/"); at != std::string::npos; at = text.find("\"meshes/", at + 2))
+      text.insert(at + 1, scenes.string() + "/");
+    return test::write_file(dir, "box" + std::to_string(side) + ".json", text);
+  };
+  const std::string prt = (dir / "huge.prt").string(), img = (dir / "huge.exr").string();
+  for (const std::string& args :
+       {"precompute " + scene_at(8192) + " -o " + prt + " --max-memory 64",
+        "render " + scene_at(16384) + " --gather patch -o " + img + " --max-memory 64"}) {
+    CommandRun r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find("needs an estimated"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("camera"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(prt));
+  EXPECT_FALSE(std::filesystem::exists(img));
+  // The same scene at 256 x 256 fits the same budget.
+  CommandRun fits = run("render " + scene_at(256) + " --gather patch -o " + img + " --max-memory 64");
+  EXPECT_EQ(fits.code, 0) << fits.err;
+}
+
+TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
+#ifdef __SANITIZE_ADDRESS__
+  GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";
+#endif
+  // A specular scene (the mirror's transfer entries) and a diffuse one at a finer mesh (the form
+  // factors), each with the stored patch gather: what the report says was estimated against
+  // the process's peak resident set.
+  auto dir = test::temp_dir();
+  const std::string report = (dir / "r.json").string(), img = (dir / "x.exr").string();
+  for (const std::string& args :
+       {"render " + test::scene_path("cornell-mirror-cube") + " --patch-size 35 --gather patch",
+        "render " + test::scene_path("cornell-box") + " --patch-size 25 --gather patch"}) {
+    CommandRun r = run(args + " -o " + img + " --report " + report);
+    ASSERT_EQ(r.code, 0) << args << "\n" << r.err;
+    const JsonValue rep = test::read_json(report);
+    const double estimate = rep.find("system")->find("estimated_memory_bytes")->number;
+    const double peak = rep.find("peak_memory_bytes")->number;
+    EXPECT_LT(estimate, 1.5 * peak) << args;
+    EXPECT_GT(estimate, peak / 1.5) << args;
+    RecordProperty(args.substr(7, 40), std::to_string(estimate / peak));
+  }
+}
+
 TEST(Cli, DivergenceIsExitThreeAndWritesNothing) {
   auto dir = test::temp_dir();
   std::string scene = test::write_file(

@@ -32,10 +32,18 @@ DemoResult demo(const DemoOptions& f) {
   Stopwatch watch;
 
   say("building the glossy radiosity system (form factors, specular transfer, operator)");
-  auto sys = build_system(World::load(f.scene));
+  auto loaded = World::load(f.scene);
+  // The final gather is stored (the iterative image and the precompute's view rows both read
+  // it), beside the view rows: the camera's share of the memory estimate.
+  const Camera& camera = loaded->camera();
+  SystemOptions system;
+  system.camera_bytes =
+      gather_memory(GatherOptions::final_gather(),
+                    static_cast<std::int64_t>(camera.width) * camera.height, false) +
+      rows_memory(SeriesOptions{}, loaded->scene());
+  auto sys = build_system(std::move(loaded), system);
   const World& world = *sys->world;
   const auto& t = sys->transport;
-  // The final gather, stored: the iterative image and the precompute's view rows both read it.
   const Gather gather = build_gather(world, t.layout(), GatherOptions::final_gather());
 
   say("solving iteratively (Gauss-Seidel to a relative residual of 1e-4)");

@@ -29,7 +29,9 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   rep.overrides = o.overrides;
   Scene scene = load_scene(scene_path, o.scene);
   rep.seconds.push_back({"load", watch.lap()});
-  auto sys = build_system(std::move(scene), o.overrides, o.system);
+  SystemOptions system = o.system;  // with the view rows' share of the memory estimate
+  system.camera_bytes = rows_memory(o.series, apply_overrides(scene, o.overrides));
+  auto sys = build_system(std::move(scene), o.overrides, system);
   SeriesOperator q = precompute_series(sys->transport, *sys->world, o.series);
   rep.system = sys->summary();
   rep.series = q;

@@ -4,26 +4,52 @@
 #include <cmath>
 
 #include "polyrad/app/precompute.h"
+#include "polyrad/transport/memory_estimate.h"
 #include "polyrad/util/stats.h"
 
 namespace polyrad {
 
 namespace {
 
-// The scene, timed as "load", and the world built from it (its mesh and ray caster times).
+// The camera's share of the memory estimate (transport/memory_estimate.h): the gather, or the
+// view rows and their deferred gather, or the path tracer's image and its error buffers.
+double camera_memory(const RenderOptions& o, const Scene& scene) {
+  const std::int64_t pixels = static_cast<std::int64_t>(scene.camera.width) * scene.camera.height;
+  switch (o.method) {
+    case RenderMethod::kIterative:
+      return gather_memory(o.gather, pixels, o.gather.kind == GatherKind::kFinal);
+    case RenderMethod::kSeries: {
+      SeriesOptions so = o.series;
+      so.output = SeriesOutput::kView;
+      so.gather = o.gather;
+      return rows_memory(so, scene);
+    }
+    case RenderMethod::kPathTrace:
+      break;
+  }
+  return 48.0 * static_cast<double>(pixels);
+}
+
+// The scene, timed as "load", and the world built from it (its mesh and ray caster times). The
+// memory estimate is checked before the mesh is made (a tiny patch size or a huge image is
+// refused at once), and `system` gets the camera's share for build_system's own check.
 std::shared_ptr<const World> load_world(const std::string& path, const RenderOptions& o,
-                                        Report& report) {
+                                        SystemOptions& system, Report& report) {
   Stopwatch watch;
   Scene scene = load_scene(path, o.scene);
   report.seconds.push_back({"load", watch.seconds()});
+  system.camera_bytes = camera_memory(o, apply_overrides(scene, o.overrides));
+  MemoryEstimate need = estimate_memory(apply_overrides(scene, o.overrides), system);
+  if (o.method == RenderMethod::kPathTrace) need.system = 0.0;
+  require_memory(need, memory_budget(system.max_memory_bytes), scene.file);
   auto world = World::build(std::move(scene), o.overrides);
   report.scene = path;
   report.overrides = o.overrides;
   return world;
 }
 
-void render_iterative(RenderResult& r, const RenderOptions& o) {
-  r.system = build_system(r.world, o.system);
+void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
+  r.system = build_system(r.world, system);
   const TransportOperator& t = r.system->transport;
   SolveResult solution = solve(t, t.emission(), o.solve);
   if (solution.status == SolveStatus::kDiverged || !solution.u.allFinite())
@@ -51,9 +77,8 @@ void render_iterative(RenderResult& r, const RenderOptions& o) {
   rep.solve = std::move(solution);
 }
 
-void render_series(RenderResult& r, const RenderOptions& o) {
-  check_series_options(o.series, o.system);
-  auto sys = build_system(r.world, o.system);
+void render_series(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
+  auto sys = build_system(r.world, system);
   SeriesOptions so = o.series;
   so.output = SeriesOutput::kView;
   so.gather = o.gather;
@@ -101,13 +126,15 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
   RenderResult r;
   r.report.command = "render";
   r.report.method = enum_name(o.method);
-  r.world = load_world(scene_path, o, r.report);
+  if (o.method == RenderMethod::kSeries) check_series_options(o.series, o.system);
+  SystemOptions system = o.system;
+  r.world = load_world(scene_path, o, system, r.report);
   switch (o.method) {
     case RenderMethod::kIterative:
-      render_iterative(r, o);
+      render_iterative(r, o, system);
       break;
     case RenderMethod::kSeries:
-      render_series(r, o);
+      render_series(r, o, system);
       break;
     case RenderMethod::kPathTrace:
       render_pathtrace(r, o);

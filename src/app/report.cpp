@@ -208,6 +208,7 @@ void write_json(JsonWriter& w, std::string_view key, const SystemSummary& s) {
       .value("max_albedo", s.max_albedo)
       .end_object();
   write_lobe_checks(w, s.lobes);
+  w.value("estimated_memory_bytes", s.estimated_memory_bytes);
   w.end_object();
 }
 

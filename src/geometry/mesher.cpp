@@ -129,28 +129,39 @@ std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, dou
   return out;
 }
 
-double count_patches(const Scene& scene) {
+std::vector<FacePatches> face_patches(const Scene& scene) {
   // Counted in double: the count of an absurd patch size must not overflow before it is refused.
   auto cells_d = [](double length, double max_edge) {
     return std::max(1.0, std::ceil(length / max_edge - 1e-9));
   };
-  double total = 0.0;
+  std::vector<FacePatches> out;
   for (const auto& o : scene.objects)
     for (const auto& face : merged_faces(o.faces)) {
+      FacePatches f;
+      Vec3 area2 = Vec3::Zero();
+      for (size_t k = 1; k + 1 < face.size(); ++k) area2 += (face[k] - face[0]).cross(face[k + 1] - face[0]);
+      for (const Vec3& v : face) f.centroid += v / static_cast<double>(face.size());
+      f.normal = area2.norm() > 0.0 ? Vec3(area2.normalized()) : Vec3::Zero();
       if (face.size() == 4) {
-        total +=
-            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()),
-                    o.patch_size) *
+        f.patches =
+            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()), o.patch_size) *
             cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
-        continue;
+      } else {
+        for (size_t k = 1; k + 1 < face.size(); ++k) {
+          double longest = std::max({(face[k] - face[0]).norm(), (face[k + 1] - face[k]).norm(),
+                                     (face[0] - face[k + 1]).norm()});
+          double n = cells_d(longest, o.patch_size);
+          f.patches += n * n;
+        }
       }
-      for (size_t k = 1; k + 1 < face.size(); ++k) {
-        double longest = std::max({(face[k] - face[0]).norm(), (face[k + 1] - face[k]).norm(),
-                                   (face[0] - face[k + 1]).norm()});
-        double n = cells_d(longest, o.patch_size);
-        total += n * n;
-      }
+      out.push_back(f);
     }
+  return out;
+}
+
+double count_patches(const Scene& scene) {
+  double total = 0.0;
+  for (const FacePatches& f : face_patches(scene)) total += f.patches;
   return total;
 }
 

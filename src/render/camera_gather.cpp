@@ -438,6 +438,18 @@ GatherWork for_each_gather_block(
   return work;
 }
 
+double gather_memory(const GatherOptions& o, std::int64_t pixels, bool deferred) {
+  const double rays = static_cast<double>(o.pixel_grid) * o.pixel_grid;
+  const double entries = o.kind == GatherKind::kFinal ? 0.75 * rays * o.gather_samples : 1.75 * rays;
+  const double per_pixel_buffers = 48.0;  // the image and the apply's double sums
+  const auto p = static_cast<double>(pixels);
+  if (deferred) {
+    const double block = static_cast<double>(kGatherBlockPixels) * entries * 16.0 * 3.0;
+    return block + 24.0 * p;
+  }
+  return p * (2.0 * 16.0 * entries + per_pixel_buffers);
+}
+
 std::vector<Rgb> scene_emission(const PatchSet& patches) {
   std::vector<Rgb> e(patches.size());
   for (size_t p = 0; p < patches.size(); ++p) e[p] = patches[p].emission;

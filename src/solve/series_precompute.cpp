@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "polyrad/geometry/mesher.h"
 #include "polyrad/solve/solver.h"
 #include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/permuted_transport.h"
@@ -415,6 +416,37 @@ std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& s
     if (patches[p].emitter)
       columns.push_back({scene.objects[patches[p].object].name, p, patches[p].emission});
   return columns;
+}
+
+double rows_memory(const SeriesOptions& o, std::int64_t rows, std::int64_t unknowns,
+                   std::int64_t columns) {
+  const auto r = static_cast<double>(rows), u = static_cast<double>(unknowns),
+             c = static_cast<double>(columns);
+  const double value = o.precision == ValuePrecision::kHalf ? 6.0 : 12.0;
+  const double batch = static_cast<double>(std::min<std::int64_t>(columns, std::max(1, o.column_batch)));
+  if (o.output == SeriesOutput::kView) {
+    // Every batch's P_K S and pixel rows, then the rows kept (16 bytes an entry) beside them:
+    // 24 + 16 bytes; later the kept rows, Q and its dense copy: 16 + 2 x 12 at most.
+    return u * 3.0 * 8.0 * c + r * c * 40.0;
+  }
+  // Three blocks of unknowns a batch (the term, the next, the sum), the rows kept, Q twice.
+  return u * 3.0 * 8.0 * 3.0 * batch + r * c * (16.0 + 2.0 * value);
+}
+
+double rows_memory(const SeriesOptions& o, const Scene& scene) {
+  const double patches = count_patches(scene);
+  double columns = 0.0;
+  for (const auto& obj : scene.objects) {
+    if (!obj.is_emitter) continue;
+    Scene one;
+    one.objects = {obj};
+    columns += o.basis == SeriesBasis::kObject ? 1.0 : count_patches(one);
+  }
+  const auto unknowns = static_cast<std::int64_t>(patches);
+  const auto cols = static_cast<std::int64_t>(columns);
+  if (o.output == SeriesOutput::kSolution) return rows_memory(o, unknowns, unknowns, cols);
+  const std::int64_t pixels = static_cast<std::int64_t>(scene.camera.width) * scene.camera.height;
+  return rows_memory(o, pixels, unknowns, cols) + gather_memory(o.gather, pixels, true);
 }
 
 SeriesOperator precompute_series(const TransportOperator& t, const World& world,

@@ -4,51 +4,10 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "polyrad/transport/memory_estimate.h"
 #include "polyrad/util/machine.h"
 
 namespace polyrad {
-
-MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options) {
-  MemoryEstimate m;
-  m.patches = count_patches(scene);
-  if (options.mesh == MeshKind::kHierarchical) {
-    // The first pass judges every facing pair of roots and keeps those it links: as if half of
-    // them, 56 bytes each while building; elements about 300 bytes, a few levels a root.
-    m.form_factors = 0.5 * m.patches * m.patches * 0.5 * 56.0;
-    m.fields = m.patches * 64 * 300.0;
-    return m;
-  }
-  // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
-  m.form_factors = 0.5 * m.patches * m.patches * (8.0 * 2 + 16.0);
-  double reflecting = 0.0;
-  for (const auto& o : scene.objects)
-    if (scene.materials[o.material].has_lobe()) {
-      Scene one;
-      one.objects = {o};
-      one.materials = scene.materials;
-      reflecting += count_patches(one);
-    }
-  // Each (j -> i) pair: up to `samples` targets, 12 bytes stored, twice while balancing.
-  m.specular = reflecting * 0.5 * m.patches * std::min(options.specular.samples, 64) * 12.0 * 2.0;
-  // Unknowns (patches + links) times 3 doubles, a few fields.
-  m.fields = (m.patches + m.specular / 24.0) * 3 * 8 * 6;
-  return m;
-}
-
-void require_memory(const Scene& scene, const SystemOptions& options) {
-  const double budget =
-      options.max_memory_bytes > 0.0 ? options.max_memory_bytes : 0.8 * physical_memory_bytes();
-  const MemoryEstimate need = estimate_memory(scene, options);
-  if (!(budget > 0.0) || need.total() <= budget) return;
-  char text[512];
-  std::snprintf(text, sizeof text,
-                "the scene needs an estimated %.3g GiB (%.3g patches: form factors %.3g GiB, "
-                "specular transfer %.3g GiB), more than the budget of %.3g GiB; use a larger "
-                "patch_size or raise --max-memory",
-                need.total() / (1 << 30), need.patches, need.form_factors / (1 << 30),
-                need.specular / (1 << 30), budget / (1 << 30));
-  throw InputError(SourceLocation{scene.file}, text);
-}
 
 SystemSummary RadiositySystem::summary() const {
   SystemSummary s;
@@ -67,6 +26,7 @@ SystemSummary RadiositySystem::summary() const {
   s.operator_bytes = transport.bytes();
   s.max_albedo = transport.max_albedo();
   s.lobes = lobes;
+  s.estimated_memory_bytes = estimated_memory_bytes;
   if (hierarchy) {
     s.mesh = MeshKind::kHierarchical;
     HierarchySummary h;
@@ -122,8 +82,10 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
 
 std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world,
                                               const SystemOptions& options) {
-  require_memory(world->scene(), options);
+  const MemoryEstimate need = estimate_memory(*world, options);
+  require_memory(need, memory_budget(options.max_memory_bytes), world->scene().file);
   auto sys = std::make_unique<RadiositySystem>();
+  sys->estimated_memory_bytes = need.total();
   sys->world = std::move(world);
   const World& w = *sys->world;
   sys->times = w.times();
@@ -157,7 +119,8 @@ std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world
 
 std::unique_ptr<RadiositySystem> build_system(Scene scene, const SceneOverrides& overrides,
                                               const SystemOptions& options) {
-  require_memory(apply_overrides(scene, overrides), options);
+  require_memory(estimate_memory(apply_overrides(scene, overrides), options),
+                 memory_budget(options.max_memory_bytes), scene.file);
   // The world applies the overrides itself: it takes the scene as written.
   return build_system(World::build(std::move(scene), overrides), options);
 }

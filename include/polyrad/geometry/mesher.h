@@ -72,6 +72,14 @@ PatchSet mesh_scene(const Scene& scene);
 // How many patches mesh_scene would make, without making them (for memory estimates: a tiny
 // patch_size must be refused before the mesher tries to allocate billions of patches).
 double count_patches(const Scene& scene);
+// Each face as the mesher will cut it: where it is, which way it faces and how many patches it
+// makes (memory estimates judge which patches could see each other from these).
+struct FacePatches {
+  Vec3 centroid = Vec3::Zero();
+  Vec3 normal = Vec3::Zero();
+  double patches = 0.0;
+};
+std::vector<FacePatches> face_patches(const Scene& scene);
 
 // A planar convex polygon cut into sub-polygons no longer than max_edge (exposed for tests).
 std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, double max_edge);

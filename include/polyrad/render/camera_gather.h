@@ -150,6 +150,13 @@ GatherWork for_each_gather_block(
     const Gather& gather, std::int64_t block_pixels,
     const std::function<void(std::int64_t, const Csr<Rgbf>&, const Csr<Rgbf>&)>& f);
 
+// The bytes a gather of `pixels` pixels holds at its peak, built whole or deferred (for the
+// memory estimate, transport/memory_estimate.h): a stored gather its entries twice while it is
+// built (about 7 a pixel for the patch gather at 2 x 2 rays, 3 per cosine sample for the final
+// gather), a deferred one a block of rows and a few buffers; with the image and the apply's
+// sums.
+double gather_memory(const GatherOptions& options, std::int64_t pixels, bool deferred);
+
 // The scene's emission of each patch, as apply_gather takes it.
 std::vector<Rgb> scene_emission(const PatchSet& patches);
 

@@ -56,6 +56,17 @@ struct SeriesOptions {
 // (With a hierarchical mesh a patch's column lights every leaf under it.)
 std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& scene, SeriesBasis basis);
 
+// The bytes the precompute's rows hold at their peak (for the memory estimate,
+// transport/memory_estimate.h): view rows keep every batch's P_K S (unknowns x 3 doubles a
+// column) and their pixel rows (3 doubles a column) beside the kept entries (16 bytes): 40 bytes
+// per pixel and column, as measured on cornell-box at 512^2 and 1024^2.
+double rows_memory(const SeriesOptions& options, std::int64_t rows, std::int64_t unknowns,
+                   std::int64_t columns);
+// The same before meshing, with the deferred gather of view rows: rows are the camera's pixels
+// (view) or the patches (solution), unknowns and columns are counted from `scene` (with the
+// overrides applied, as World::scene() is).
+double rows_memory(const SeriesOptions& options, const Scene& scene);
+
 // Runs the precompute. View rows, Q = E S + G P_K S (eq. 12), fold in `gather` when given (it
 // must have been built from options.gather for this world and T), else a gather of the world's
 // camera whose rows are built here block by block (defer_gather), so that a final gather is

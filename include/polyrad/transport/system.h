@@ -50,24 +50,13 @@ struct SystemOptions {
   // Recompute the specular rows at every sweep instead of storing them (section 4.1): the
   // transfer is computed once to find the links, then its entries are released.
   bool specular_on_the_fly = false;
-  // Refuse (InputError) a system whose estimated memory exceeds this many bytes; 0: 80 percent
-  // of the machine's physical memory.
+  // Refuse (InputError) a run whose estimated memory (transport/memory_estimate.h) exceeds this
+  // many bytes; 0: 80 percent of the machine's physical memory.
   double max_memory_bytes = 0.0;
+  // The camera's share of that estimate (images, gather, view rows), which the workflow knows
+  // and sets: gather_memory (render/camera_gather.h), rows_memory (solve/series_precompute.h).
+  double camera_bytes = 0.0;
 };
-
-// An upper estimate of the memory build_system will need, by part, before anything is built:
-// form factors as if half of all patch pairs faced each other, the specular transfer as if
-// every reflector's samples spread over distinct targets, and the solver's fields.
-struct MemoryEstimate {
-  double patches = 0.0;  // of the uniform mesh (a hierarchy's roots)
-  double form_factors = 0.0, specular = 0.0, fields = 0.0;
-  double total() const { return form_factors + specular + fields; }
-};
-// scene: with the world's overrides applied (apply_overrides), as World::scene() is.
-MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options);
-// Throws InputError naming the parts when the estimate exceeds the budget (options'
-// max_memory_bytes, or 80 percent of the machine's memory).
-void require_memory(const Scene& scene, const SystemOptions& options);
 
 // A hierarchical mesh's figures: elements, links, and what each refinement pass did.
 struct HierarchySummary {
@@ -92,6 +81,9 @@ struct SystemSummary {
   std::size_t operator_bytes = 0;
   double max_albedo = 0.0;
   std::vector<LobeResolution> lobes;
+  // What build_system estimated the run would hold at its peak, the camera's share included
+  // (transport/memory_estimate.h): beside the report's measured peak.
+  double estimated_memory_bytes = 0.0;
 };
 
 struct RadiositySystem {
@@ -106,6 +98,7 @@ struct RadiositySystem {
   // unknowns (the transport's layout holds it too).
   std::shared_ptr<const ElementHierarchy> hierarchy;
   StageTimes times;  // the world's (mesh, ray caster), then each stage of the system
+  double estimated_memory_bytes = 0.0;  // as checked before the build (memory_estimate.h)
 
   const Scene& scene() const { return world->scene(); }
   const PatchSet& patches() const { return world->patches(); }
@@ -120,10 +113,10 @@ struct RadiositySystem {
   SystemSummary summary() const;
 };
 
-// Checks the memory estimate first (require_memory).
+// Checks the memory estimate first (transport/memory_estimate.h).
 std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world,
                                               const SystemOptions& options = {});
-// The same from a scene: the estimate is checked before the world is meshed, so that a tiny
+// The same from a scene: an estimate is checked before the world is meshed too, so that a tiny
 // patch size is refused at once rather than after meshing millions of patches.
 std::unique_ptr<RadiositySystem> build_system(Scene scene, const SceneOverrides& overrides,
                                               const SystemOptions& options = {});

@@ -1,0 +1,53 @@
+// What a run will hold at its peak, estimated before the work, by part: so that work that does
+// not fit is refused at once (InputError, exit code 2, with the estimate) and work that fits is
+// not. The figures per part are calibrated against the peaks measured on the Cornell scenes
+// (README, "Memory"); the estimate stays within a factor 1.5 of them.
+//
+//   base     the process: libraries, Embree's device, the scene                  130 MiB
+//   world    the patches and their ray caster                       350 bytes a patch
+//   system   the form factors and T's diffuse rows                48 bytes a visible pair
+//            the specular transfer and T's link rows            50 bytes a transfer entry
+//            (entries: each reflector patch's visible partners times the targets a pair
+//            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe)
+//            a hierarchy: 600 bytes a visible root pair at link tolerance 0.05, growing as
+//            (0.05 / tau)^1.2 as the tolerance tightens
+//   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
+//            precompute's view rows (solve/series_precompute.h, rows_memory), images
+// Visible pairs: before meshing, the pairs of faces that face each other, weighted by their
+// patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked); from a
+// built world, 4096 random patch pairs tested by a plane test and a ray between centroids.
+//
+//   MemoryEstimate m = estimate_memory(*world, options);
+//   m.camera = gather_memory(options.gather, pixels, true);
+//   require_memory(m, memory_budget(options.max_memory_bytes), world->scene().file);
+//
+// Cost: O(faces^2) before meshing (sampled beyond 4000 faces); 4096 rays from a world.
+#pragma once
+
+#include <string>
+
+#include "polyrad/scene/scene.h"
+#include "polyrad/transport/system.h"
+#include "polyrad/world/world.h"
+
+namespace polyrad {
+
+struct MemoryEstimate {
+  double patches = 0.0;        // count: the uniform mesh's (a hierarchy's roots)
+  double visible_pairs = 0.0;  // count: patch pairs that see each other
+  double base = 0.0, world = 0.0, system = 0.0, camera = 0.0;  // bytes
+  double total() const { return base + world + system + camera; }
+};
+
+// Before meshing: scene with the overrides applied (apply_overrides).
+MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options);
+// From a built world: visible pairs sampled with rays.
+MemoryEstimate estimate_memory(const World& world, const SystemOptions& options);
+
+// max_memory_bytes when positive, else 80 percent of the machine's physical memory.
+double memory_budget(double max_memory_bytes);
+// Throws InputError naming the file, the estimate by part and the budget when the estimate
+// exceeds it.
+void require_memory(const MemoryEstimate& need, double budget, const std::string& file);
+
+}  // namespace polyrad

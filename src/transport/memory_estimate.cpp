@@ -1,0 +1,145 @@
+// Memory estimated before the work (transport/memory_estimate.h).
+#include "polyrad/transport/memory_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "polyrad/util/machine.h"
+#include "polyrad/util/sampling.h"
+
+namespace polyrad {
+
+namespace {
+
+constexpr double kBaseBytes = 130.0 * (1 << 20);
+constexpr double kPatchBytes = 350.0;
+constexpr double kPairBytes = 48.0;
+constexpr double kEntryBytes = 50.0;
+constexpr double kRootPairBytes = 600.0;
+constexpr double kVisibleShareOfFacing = 0.75;
+constexpr int kPairSamples = 4096;
+
+bool facing(const Vec3& ca, const Vec3& na, const Vec3& cb, const Vec3& nb) {
+  const Vec3 d = cb - ca;
+  return d.dot(na) > 0.0 && -d.dot(nb) > 0.0;
+}
+
+// The targets one (j -> i) pair of a reflector reaches: a mirror's samples land on few patches,
+// a lobe's spread over about all of them (and balancing adds the reverse entries).
+double targets_per_pair(const Material& m, int samples) {
+  return m.is_delta() ? 0.4 * samples : 1.1 * samples;
+}
+
+// The system's bytes from the counts.
+double system_bytes(double patches, double pairs, double reflector_pairs_targets,
+                    const SystemOptions& o) {
+  if (o.mesh == MeshKind::kHierarchical) {
+    const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
+    return pairs * kRootPairBytes * std::pow(std::max(1.0, 0.05 / tau), 1.2);
+  }
+  (void)patches;
+  return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
+}
+
+}  // namespace
+
+MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options) {
+  const std::vector<FacePatches> faces = face_patches(scene);
+  MemoryEstimate m;
+  for (const auto& f : faces) m.patches += f.patches;
+  // Facing pairs of faces, weighted by their patches; sampled when the faces are many.
+  const size_t n = faces.size();
+  double facing_pairs = 0.0;
+  if (n <= 4000) {
+    for (size_t a = 0; a < n; ++a)
+      for (size_t b = a + 1; b < n; ++b)
+        if (facing(faces[a].centroid, faces[a].normal, faces[b].centroid, faces[b].normal))
+          facing_pairs += faces[a].patches * faces[b].patches;
+  } else {
+    Rng rng(0x6d656d);
+    double hit = 0.0, total = 0.0;
+    for (int s = 0; s < 1 << 20; ++s) {
+      const auto a = static_cast<size_t>(rng.uniform() * n), b = static_cast<size_t>(rng.uniform() * n);
+      if (a == b) continue;
+      const double w = faces[a].patches * faces[b].patches;
+      total += w;
+      if (facing(faces[a].centroid, faces[a].normal, faces[b].centroid, faces[b].normal)) hit += w;
+    }
+    double all = 0.0, squares = 0.0;
+    for (const auto& f : faces) {
+      all += f.patches;
+      squares += f.patches * f.patches;
+    }
+    facing_pairs = total > 0.0 ? hit / total * 0.5 * (all * all - squares) : 0.0;
+  }
+  m.visible_pairs = kVisibleShareOfFacing * facing_pairs;
+  // Reflector pairs: each lobe face's patches times the mean visible partners of a patch.
+  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
+  double entries = 0.0;
+  for (const auto& o : scene.objects) {
+    const Material& mat = scene.materials[o.material];
+    Scene one;
+    one.objects = {o};
+    one.materials = scene.materials;
+    const double patches = count_patches(one);
+    if (mat.has_lobe()) entries += patches * partners * targets_per_pair(mat, options.specular.samples);
+  }
+  m.base = kBaseBytes;
+  m.world = m.patches * kPatchBytes;
+  m.system = system_bytes(m.patches, m.visible_pairs, entries, options);
+  m.camera = options.camera_bytes;
+  return m;
+}
+
+MemoryEstimate estimate_memory(const World& world, const SystemOptions& options) {
+  const PatchSet& patches = world.patches();
+  MemoryEstimate m;
+  m.patches = static_cast<double>(patches.size());
+  const auto n = static_cast<std::int64_t>(patches.size());
+  // Random pairs: a plane test, then a ray between the centroids.
+  Rng rng(0x706169);
+  int seen = 0, tried = 0;
+  for (int s = 0; s < kPairSamples && n > 1; ++s) {
+    const auto a = static_cast<PatchId>(rng.uniform() * n);
+    const auto b = static_cast<PatchId>(rng.uniform() * n);
+    if (a == b) continue;
+    ++tried;
+    const Patch& pa = patches[a];
+    const Patch& pb = patches[b];
+    if (!facing(pa.centroid, pa.normal, pb.centroid, pb.normal)) continue;
+    if (!world.caster().segment_occluded(pa.centroid, a, pb.centroid, b)) ++seen;
+  }
+  // A pair partly hidden at its centroids still links (F > 0): a tenth more than the rays see.
+  m.visible_pairs = tried > 0 ? 1.1 * seen / tried * 0.5 * m.patches * (m.patches - 1) : 0.0;
+  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
+  double entries = 0.0;
+  for (const Patch& p : patches.patches) {
+    const Material& mat = world.materials()[p.material];
+    if (mat.has_lobe()) entries += partners * targets_per_pair(mat, options.specular.samples);
+  }
+  m.base = kBaseBytes;
+  m.world = m.patches * kPatchBytes;
+  m.system = system_bytes(m.patches, m.visible_pairs, entries, options);
+  m.camera = options.camera_bytes;
+  return m;
+}
+
+double memory_budget(double max_memory_bytes) {
+  return max_memory_bytes > 0.0 ? max_memory_bytes : 0.8 * physical_memory_bytes();
+}
+
+void require_memory(const MemoryEstimate& need, double budget, const std::string& file) {
+  if (!(budget > 0.0) || need.total() <= budget) return;
+  constexpr double gib = 1 << 30;
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "the run needs an estimated %.3g GiB (%.3g patches, %.3g visible pairs: system "
+                "%.3g GiB, camera %.3g GiB, process and world %.3g GiB), more than the budget of "
+                "%.3g GiB; use a larger patch_size, a smaller image, or raise --max-memory",
+                need.total() / gib, need.patches, need.visible_pairs, need.system / gib,
+                need.camera / gib, (need.base + need.world) / gib, budget / gib);
+  throw InputError(SourceLocation{file}, text);
+}
+
+}  // namespace polyrad
