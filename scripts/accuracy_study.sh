@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Radiosity against a path-traced reference of the same scene, camera and materials, at several
-# patch sizes. For each scene: a high-sample reference (cached), then radiosity in
-# smooth and flat shading at each patch size, compared region by region; a markdown table and
-# side-by-side pictures under DIR.
+# patch sizes. For each scene: a high-sample reference (cached), then radiosity at each patch
+# size read three ways (the patch gather in smooth and in flat shading, and the final gather),
+# compared region by region; a markdown table and side-by-side pictures under DIR, named
+# SCENE-pSIZE-{patch-smooth,patch-flat,final}.
 #
 #   ./scripts/accuracy_study.sh [DIR] [SPP] [SCENES...]
 #     DIR     output (default out/accuracy)      SPP  reference samples per pixel (default 4096)
@@ -22,7 +23,7 @@ fi
 mkdir -p "$out"
 table="$out/accuracy.md"
 {
-  echo "| scene | patch size | patches | shading | relative RMSE | mean relative error | relative L1 | largest region difference | time (s) |"
+  echo "| scene | patch size | patches | gather | relative RMSE | mean relative error | relative L1 | largest region difference | time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|"
 } > "$table.tmp"
 for scene in "${scenes[@]}"; do
@@ -33,13 +34,17 @@ for scene in "${scenes[@]}"; do
     "$POLYRAD" --quiet render "$file" --method pathtrace --spp "$spp" -o "$ref" --report "$out/$scene-pt$spp.json"
   fi
   for size in 100 50 25; do
-    for shading in smooth flat; do
-      img="$out/$scene-p$size-$shading.exr"
-      "$POLYRAD" --quiet render "$file" --patch-size "$size" --diffuse "$shading" --tolerance 1e-6 \
-        -o "$img" --report "$out/$scene-p$size-$shading.json"
-      "$POLYRAD" --quiet compare "$img" "$ref" --scene "$file" --report "$out/$scene-p$size-$shading-cmp.json" \
-        --side-by-side "$out/$scene-p$size-$shading-compare.png" >/dev/null
-      /usr/bin/python3 - "$out" "$scene" "$size" "$shading" >> "$table.tmp" <<'PY'
+    for read in patch-smooth patch-flat final; do
+      case "$read" in
+        patch-*) flags=(--gather patch --diffuse "${read#patch-}") ;;
+        final) flags=(--gather final) ;;
+      esac
+      img="$out/$scene-p$size-$read.exr"
+      "$POLYRAD" --quiet render "$file" --patch-size "$size" "${flags[@]}" --tolerance 1e-6 \
+        -o "$img" --report "$out/$scene-p$size-$read.json"
+      "$POLYRAD" --quiet compare "$img" "$ref" --scene "$file" --report "$out/$scene-p$size-$read-cmp.json" \
+        --side-by-side "$out/$scene-p$size-$read-compare.png" >/dev/null
+      /usr/bin/python3 - "$out" "$scene" "$size" "$read" >> "$table.tmp" <<'PY'
 import json, sys
 out, scene, size, shading = sys.argv[1:]
 r = json.load(open(f"{out}/{scene}-p{size}-{shading}.json"))

@@ -5,6 +5,7 @@
 #   out/charts/*.png           ./scripts/demo.sh          (sweep charts), and
 #                              polyrad convergence + scripts/convergence_chart.py (convergence.png)
 #   out/accuracy/*             ./scripts/accuracy_study.sh (radiosity | path traced | error)
+#   out/gather/gather.png      ./scripts/gather_study.sh  (final gather samples: error against time)
 #   out/lobe/*                 ./scripts/lobe_study.sh    (coarse mesh under a sharp lobe)
 #   out/lobe-nolight/*         LIGHT_SAMPLES=0 ./scripts/lobe_study.sh out/lobe-nolight
 # A missing source is skipped with a note, so the script can refresh part of the pictures.
@@ -19,6 +20,7 @@ copy() {  # copy SRC DST-NAME
 }
 
 copy out/compare.png mirror-cube-compare.png
+copy out/gather/gather.png gather-samples.png
 for c in error_vs_time error_vs_order cost_vs_patches convergence; do copy "out/charts/$c.png" "$c.png"; done
 
 # Strips: images side by side (--row) or one above the other (--column), 6 px white gaps.
@@ -44,9 +46,11 @@ EOF
 relit=(out/radiosity.png out/relit-as-scene.png out/relit-double.png out/relit-blue.png)
 if [ -f "${relit[3]}" ]; then strip --row "$dst/relit.png" "${relit[@]}"; fi
 
+# Both gathers beside the path tracer, top to bottom: the patch gather at the default patch
+# size 50, the final gather at 50, and the final gather at 100 (240 patches).
 for scene in cornell-box cornell-mirror-cube cornell-glossy; do
   files=()
-  for p in 100 50 25; do files+=("out/accuracy/$scene-p$p-smooth-compare.png"); done
+  for run in p50-patch-smooth p50-final p100-final; do files+=("out/accuracy/$scene-$run-compare.png"); done
   if [ -f "${files[0]}" ] && [ -f "${files[1]}" ] && [ -f "${files[2]}" ]; then
     strip --column "$dst/accuracy-$scene.png" "${files[@]}"
   else
@@ -72,7 +76,7 @@ fi
 
 # Where the mirror cube adds light: each mirror-cube image against the same box with a diffuse
 # short block, radiosity (patch size 25) and path traced (4096 spp); red where the mirror adds.
-rad_m=out/accuracy/cornell-mirror-cube-p25-smooth.exr rad_d=out/accuracy/cornell-box-p25-smooth.exr
+rad_m=out/accuracy/cornell-mirror-cube-p25-patch-smooth.exr rad_d=out/accuracy/cornell-box-p25-patch-smooth.exr
 pt_m=out/accuracy/cornell-mirror-cube-pt4096.exr pt_d=out/accuracy/cornell-box-pt4096.exr
 if [ -f "$rad_m" ] && [ -f "$rad_d" ] && [ -f "$pt_m" ] && [ -f "$pt_d" ]; then
   tmp=$(mktemp -d)
