@@ -11,15 +11,6 @@ namespace polyrad {
 MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options) {
   MemoryEstimate m;
   m.patches = count_patches(scene);
-  if (options.mesh == MeshKind::kHierarchical) {
-    // The first pass judges every facing pair of roots and keeps those it links: as if half of
-    // them, 56 bytes each while building; elements about 300 bytes, a few levels a root.
-    m.form_factors = 0.5 * m.patches * m.patches * 0.5 * 56.0;
-    m.fields = m.patches * 64 * 300.0;
-    return m;
-  }
-  // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
-  m.form_factors = 0.5 * m.patches * m.patches * (8.0 * 2 + 16.0);
   double reflecting = 0.0;
   for (const auto& o : scene.objects)
     if (scene.materials[o.material].has_lobe()) {
@@ -28,8 +19,18 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
       one.materials = scene.materials;
       reflecting += count_patches(one);
     }
-  // Each (j -> i) pair: up to `samples` targets, 12 bytes stored, twice while balancing.
+  // Each (j -> i) pair: up to `samples` targets, 12 bytes stored, twice while balancing (the
+  // hierarchical mesh's transfer is the same, on its roots).
   m.specular = reflecting * 0.5 * m.patches * std::min(options.specular.samples, 64) * 12.0 * 2.0;
+  if (options.mesh == MeshKind::kHierarchical) {
+    // The first pass judges every facing pair of roots and keeps those it links: as if half of
+    // them, 56 bytes each while building; elements about 300 bytes, a few levels a root.
+    m.form_factors = 0.5 * m.patches * m.patches * 0.5 * 56.0;
+    m.fields = m.patches * 64 * 300.0 + m.specular / 24.0 * 3 * 8 * 6;
+    return m;
+  }
+  // Per facing pair: 8 bytes in each direction of the CSR, 16 in the per-row lists built first.
+  m.form_factors = 0.5 * m.patches * m.patches * (8.0 * 2 + 16.0);
   // Unknowns (patches + links) times 3 doubles, a few fields.
   m.fields = (m.patches + m.specular / 24.0) * 3 * 8 * 6;
   return m;
@@ -85,19 +86,20 @@ SystemSummary RadiositySystem::summary() const {
 namespace {
 
 // The hierarchical mesh's stages (transport/hierarchy.h): element trees on the world's patches,
-// links refined pass by pass, T on the leaves. Diffuse transport only: a lobe is refused (a
-// classic world has none).
+// links refined pass by pass; with lobes, the specular links between the roots (eq. H3): root
+// form factors from the links, the transfer on the roots as the uniform mesh computes it, the
+// lobe check; then T on the leaves and the links.
 void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   const World& w = *sys.world;
-  for (const auto& o : w.scene().objects)
-    if (w.materials()[o.material].has_lobe())
-      throw InputError(SourceLocation{w.scene().file},
-                       "object '" + o.name +
-                           "' has a mirror, glossy or Phong material; the "
-                           "hierarchical mesh carries diffuse light only (use --mesh uniform, or "
-                           "--classic for the diffuse part alone)");
+  bool lobes = false;
+  for (const auto& o : w.scene().objects) lobes = lobes || w.materials()[o.material].has_lobe();
+  if (lobes && options.specular_on_the_fly)
+    throw InputError(SourceLocation{w.scene().file},
+                     "--specular-on-the-fly recomputes the uniform mesh's link rows; the "
+                     "hierarchical mesh stores its root links' rows (use --mesh uniform)");
   HierarchyOptions ho = options.hierarchy;
   ho.form_factors = options.form_factors;
+  ho.specular = options.specular;
   auto h = std::make_shared<ElementHierarchy>(
       build_hierarchy(w.patches(), w.materials(), w.caster(), ho));
   const HierarchyStats& st = h->stats();
@@ -111,9 +113,22 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   sys.times.push_back({"hierarchy_oracle", oracle});
   sys.times.push_back({"hierarchy_form_factors", form_factors});
   sys.times.push_back({"hierarchy_pass_solves", solves});
+  if (lobes) {
+    sys.times.push_back({"hierarchy_root_form_factors", st.root_form_factor_seconds});
+    sys.times.push_back({"specular_transfer", st.transfer_seconds});
+    sys.times.push_back({"hierarchy_specular_links", st.specular_link_seconds});
+  }
   sys.times.push_back({"hierarchy", st.seconds});
-  sys.hierarchy = h;
   Stopwatch watch;
+  if (lobes) {
+    // The lobe check reads the transfer's entries (no rays); then only their statistics stay.
+    sys.lobes =
+        check_lobe_resolution(w.scene(), w.patches(), h->root_form_factors(), h->root_transfer());
+    sys.specular.stats = h->root_transfer().stats;
+    h->release_transfer();
+    sys.times.push_back({"lobe_check", watch.lap()});
+  }
+  sys.hierarchy = h;
   sys.transport = hierarchical_transport(h, w.materials());
   sys.times.push_back({"operator", watch.seconds()});
 }
