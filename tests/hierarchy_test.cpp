@@ -353,6 +353,12 @@ TEST(Hierarchy, LobesAreCarriedByRootLinks) {
   auto classic = build(load_scene(test::scene_path("cornell-mirror-cube")), o);
   EXPECT_TRUE(classic->transport.hierarchical());
   EXPECT_EQ(classic->transport.num_links(), 0);
+  // With the specular links off, the lobes are dropped as --classic drops them.
+  o.overrides.classic = false;
+  o.system.hierarchy.specular_links = false;
+  auto off = build(load_scene(test::scene_path("cornell-mirror-cube")), o);
+  EXPECT_EQ(off->transport.num_links(), 0);
+  EXPECT_EQ(off->hierarchy->stats().transfer_entries, 0);
 }
 
 std::string mirror(double a) {

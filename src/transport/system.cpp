@@ -79,6 +79,10 @@ SystemSummary RadiositySystem::summary() const {
     h.operator_bytes = hierarchy->op()->bytes();
     h.stats = hierarchy->stats();
     s.hierarchy = h;
+    // The transfer on the roots is released once the operator holds its rows (eq. H3): its
+    // entries and the rows' are the hierarchy's counts.
+    s.specular_entries = h.stats.transfer_entries;
+    s.nnz_specular = h.stats.specular_row_entries;
   }
   return s;
 }
@@ -91,8 +95,10 @@ namespace {
 // lobe check; then T on the leaves and the links.
 void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   const World& w = *sys.world;
+  // (With the hierarchy's specular links off, every material is reduced to its diffuse part.)
   bool lobes = false;
   for (const auto& o : w.scene().objects) lobes = lobes || w.materials()[o.material].has_lobe();
+  lobes = lobes && options.hierarchy.specular_links;
   if (lobes && options.specular_on_the_fly)
     throw InputError(SourceLocation{w.scene().file},
                      "--specular-on-the-fly recomputes the uniform mesh's link rows; the "
