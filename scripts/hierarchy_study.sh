@@ -6,7 +6,8 @@
 #     DIR        output (default out/hierarchy): hierarchy.md, hierarchy.csv, the images, reports
 #     REFERENCE  a path-traced reference of SCENE (default: DIR/SCENE-pt4096.exr, rendered if
 #                missing, which takes about 20 minutes on two cores)
-#     SCENE      default scenes/cornell-box.json (diffuse: the hierarchy carries diffuse light)
+#     SCENE      default scenes/cornell-box.json (with lobes, e.g. cornell-mirror-cube, the
+#                hierarchy carries them on root links)
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh);
 # $UNIFORM_SIZES and $TOLERANCES override the runs (default "50 25 17" and "0.2 0.1 0.05 0.02").
 set -euo pipefail
@@ -58,23 +59,28 @@ for tag in open(f"{out}/runs.txt").read().split():
         build = s.get("hierarchy", 0.0)
         stages = (f"exposure {s.get('hierarchy_exposure', 0):.1f}, oracle {s.get('hierarchy_oracle', 0):.1f}, "
                   f"form factors {s.get('hierarchy_form_factors', 0):.1f}, pass solves {s.get('hierarchy_pass_solves', 0):.2f}")
+        if "specular_transfer" in s:
+            stages += f", transfer {s['specular_transfer']:.1f}"
     else:
         elements, links = r["system"]["patches"], r["system"]["form_factors"]["pairs_visible"]
-        build = s.get("form_factors", 0.0)
-        stages = f"form factors {build:.1f}"
+        build = s.get("form_factors", 0.0) + s.get("specular_transfer", 0.0)
+        stages = f"form factors {s.get('form_factors', 0.0):.1f}"
+        if "specular_transfer" in s:
+            stages += f", transfer {s['specular_transfer']:.1f}"
     regions = {x["name"]: x["luminance_difference"] for x in c["regions"]}
     worst = max(regions, key=lambda k: abs(regions[k]))
-    rows.append(dict(tag=tag, elements=elements, links=links, build=build, stages=stages,
+    rows.append(dict(tag=tag, elements=elements, links=links, slinks=r["system"]["links"],
+                     build=build, stages=stages,
                      solve=s.get("solve", 0.0), gather=s.get("gather_build", 0.0), wall=wall,
                      peak=r["peak_memory_bytes"] / 2**30, rmse=c["relative_rmse"],
                      mre=c["mean_relative_error"], l1=c["relative_l1"], worst=worst,
                      worst_diff=regions[worst], regions=regions))
 with open(f"{out}/hierarchy.md", "w") as f:
-    f.write("| run | elements | links | build (s): stages | solve (s) | gather (s) | wall (s) | peak (GiB) "
-            "| relative RMSE | mean relative error | relative L1 | largest region difference |\n")
-    f.write("|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    f.write("| run | elements | links | specular links | build (s): stages | solve (s) | gather (s) | wall (s) "
+            "| peak (GiB) | relative RMSE | mean relative error | relative L1 | largest region difference |\n")
+    f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     for x in rows:
-        f.write(f"| {x['tag']} | {x['elements']} | {x['links']} | {x['build']:.1f}: {x['stages']} | "
+        f.write(f"| {x['tag']} | {x['elements']} | {x['links']} | {x['slinks']} | {x['build']:.1f}: {x['stages']} | "
                 f"{x['solve']:.2f} | {x['gather']:.2f} | {x['wall']:.1f} | {x['peak']:.2f} | {x['rmse']:.3f} | "
                 f"{x['mre']:.3f} | {x['l1']:.3f} | {x['worst']} {100 * x['worst_diff']:+.2f}% |\n")
     f.write("\nRegion means against the reference (luminance, percent):\n\n")
@@ -83,9 +89,9 @@ with open(f"{out}/hierarchy.md", "w") as f:
     for x in rows:
         f.write(f"| {x['tag']} | " + " | ".join(f"{100 * x['regions'][n]:+.2f}" for n in names) + " |\n")
 with open(f"{out}/hierarchy.csv", "w") as f:
-    f.write("run,elements,links,build_s,solve_s,gather_s,wall_s,peak_gib,relative_rmse,mean_relative_error,relative_l1\n")
+    f.write("run,elements,links,specular_links,build_s,solve_s,gather_s,wall_s,peak_gib,relative_rmse,mean_relative_error,relative_l1\n")
     for x in rows:
-        f.write(f"{x['tag']},{x['elements']},{x['links']},{x['build']:.3f},{x['solve']:.3f},{x['gather']:.3f},"
+        f.write(f"{x['tag']},{x['elements']},{x['links']},{x['slinks']},{x['build']:.3f},{x['solve']:.3f},{x['gather']:.3f},"
                 f"{x['wall']:.2f},{x['peak']:.3f},{x['rmse']:.4f},{x['mre']:.4f},{x['l1']:.4f}\n")
 print(open(f"{out}/hierarchy.md").read())
 EOF

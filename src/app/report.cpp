@@ -154,6 +154,13 @@ void write_json(JsonWriter& w, std::string_view key, const HierarchySummary& h) 
       .value("exposure_seconds", st.exposure_seconds)
       .value("guard_max_excess", st.guard_max_excess)
       .value("guard_leaves", st.guard_leaves)
+      .value("root_form_factors", st.root_form_factors)
+      .value("transfer_entries", st.transfer_entries)
+      .value("specular_links", st.specular_links)
+      .value("specular_row_entries", st.specular_row_entries)
+      .value("root_form_factor_seconds", st.root_form_factor_seconds)
+      .value("transfer_seconds", st.transfer_seconds)
+      .value("specular_link_seconds", st.specular_link_seconds)
       .value("operator_bytes", h.operator_bytes)
       .value("seconds", st.seconds);
   w.begin_array("passes");

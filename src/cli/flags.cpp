@@ -55,7 +55,7 @@ void SystemFlags::add(CLI::App& app) {
                "Recompute the specular transfer at every sweep instead of storing it");
   add_enum_option(app, "--mesh", mesh,
                   "Uniform patches linked pair by pair, or element trees on them linked at the "
-                  "level the light needs (diffuse transport only)");
+                  "level the light needs (lobes on links between the trees' roots)");
   app.add_option("--link-tolerance", hierarchy.link_tolerance,
                  "Hierarchical mesh: the error a link may make, as a fraction of what it carries")
       ->check(CLI::Range(1e-9, 1e9))

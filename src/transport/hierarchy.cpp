@@ -190,15 +190,24 @@ class HierarchyBuilder {
   //   a share of r's own radiosity, so a shadow is refined until it is a small part of the
   //   light where it falls;
   // - hidden: linked as it is, never refined.
+  // A source in a reflector's tree shines toward r with B_s + S_{root(s)->root(r)} (eq. H3 (a)),
+  // as the last solve found it.
   bool accurate_for(const ElementLink& l, std::int32_t r) const {
     const auto& f = r == l.a ? l.fa : l.fb;
-    const Eigen::Array3d& b = b_[r == l.a ? l.b : l.a];
+    const std::int32_t source = r == l.a ? l.b : l.a;
+    const Eigen::Array3d b = b_[source] + specular_toward(el_[source].root, el_[r].root);
+    // A receiver with a lobe passes on what it gathers with d + s, and shines with B_r plus its
+    // links' mean S: judged so, a mirror and a wall are refined as two walls would be (the
+    // five points of one end miss the kernel's rise along a shared edge that splitting the
+    // other end reveals).
+    const Eigen::Array3d& rho = judged_rho_[el_[r].root];
+    const Eigen::Array3d b_r = b_[r] + mean_s_[el_[r].root];
     const double tau = o_.link_tolerance;
     if (l.visibility == LinkVisibility::kHidden) return true;
     if (l.visibility == LinkVisibility::kPartial) {
       const double f_max = r == l.a ? l.fmax_a : l.fmax_b;
       for (int c = 0; c < 3; ++c)
-        if (rho_[r][c] * b[c] * f_max > tau * std::max(b_[r][c], kDarkest * b_ref_)) return false;
+        if (rho[c] * b[c] * f_max > tau * std::max(b_r[c], kDarkest * b_ref_)) return false;
       return true;
     }
     const double d = spread(l, r);
@@ -206,10 +215,10 @@ class HierarchyBuilder {
     double mean = 0.0;
     for (float v : f) mean += v / kOraclePoints;
     for (int c = 0; c < 3; ++c) {
-      if (!(rho_[r][c] > 0.0)) continue;
+      if (!(rho[c] > 0.0)) continue;
       const double floor = kDarkest * b_ref_;
       if (d * b[c] <= tau * mean * std::max(b[c], floor)) continue;  // relative to the link
-      if (rho_[r][c] * b[c] * mean <= kNegligible * tau * std::max(b_[r][c], floor)) continue;
+      if (rho[c] * b[c] * mean <= kNegligible * tau * std::max(b_r[c], floor)) continue;
       return false;
     }
     return true;
@@ -233,7 +242,19 @@ class HierarchyBuilder {
   void refine(std::vector<Candidate> candidates, HierarchyPass& pass);
   void link_form_factors(HierarchyPass& pass);
   void make_operator();
+  // With lobes: the root form factors of the current links, the transfer (once, after the
+  // first pass) and the operator's specular part (eq. H3).
+  void attach_specular();
   int solve(HierarchyPass& pass);
+  // S_{i->k} of the last solve (0 where there is no such link).
+  Eigen::Array3d specular_toward(PatchId i, PatchId k) const {
+    const auto first = seen_links_.begin() + seen_start_[i];
+    const auto last = seen_links_.begin() + seen_start_[i + 1];
+    const auto it =
+        std::lower_bound(first, last, k, [](const Link& x, PatchId key) { return x.to < key; });
+    return it != last && it->to == k ? seen_s_[it - seen_links_.begin()]
+                                     : Eigen::Array3d::Zero().eval();
+  }
 
   const PatchSet& roots_;
   const std::vector<Material>& materials_;
@@ -246,6 +267,15 @@ class HierarchyBuilder {
   std::vector<ElementLink> pending_links_;  // judged to link, form factor still to compute
   std::vector<std::int32_t> node_element_;  // the operator's node -> element
   double b_ref_ = 0.0;
+  bool lobes_ = false;  // some root has a lobe and the specular links are on
+  bool transfer_done_ = false;
+  // The specular links of the last solve and their values, for the oracle (specular_toward).
+  std::vector<Link> seen_links_;
+  std::vector<std::int64_t> seen_start_;
+  std::vector<Eigen::Array3d> seen_s_;
+  // Per root, as the oracle judges a receiver: its albedo d + s (d alone without lobes), and the
+  // flux-weighted mean S of its links in the last solve.
+  std::vector<Eigen::Array3d> judged_rho_, mean_s_;
   // Rays from each oracle point of a partly hidden pair to the other element (its visible
   // fraction there).
   static constexpr int kPointRays = 4;
@@ -685,15 +715,18 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
   const Stopwatch t0;
   const HierarchicalOperator& op = *h_.op_;
   const auto leaves = static_cast<Eigen::Index>(h_.leaves_.size());
-  Field e(leaves, 3);
-  std::vector<double> w(leaves);
+  const RootSpecular* sp = op.specular();
+  const Eigen::Index size = op.size();
+  Field e = Field::Zero(size, 3);
+  std::vector<double> w(size);  // flux weights over pi: A'_l, then tau_ik / pi
   for (Eigen::Index l = 0; l < leaves; ++l) {
     e.row(l) = h_.leaves_[l].emission.matrix().transpose();
     w[l] = el_[h_.leaf_element_[l]].exposed;
   }
+  for (Eigen::Index l = leaves; l < size; ++l) w[l] = sp->flux_weight[l - leaves] / kPi;
   auto norm = [&](const Field& f) {
     double s = 0.0;
-    for (Eigen::Index l = 0; l < leaves; ++l) s += w[l] * f.row(l).cwiseAbs().sum();
+    for (Eigen::Index l = 0; l < size; ++l) s += w[l] * f.row(l).cwiseAbs().sum();
     return s;
   };
   const double norm_e = norm(e);
@@ -706,6 +739,24 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
     if (norm(u - previous) < o_.pass_tolerance * norm_e) {
       ++sweeps;
       break;
+    }
+  }
+  // The specular links' values, for the oracle's sources in reflectors' trees.
+  seen_links_.clear();
+  seen_s_.clear();
+  seen_start_.assign(roots_.size() + 1, 0);
+  if (sp) {
+    seen_links_ = sp->links;
+    seen_start_ = sp->link_start;
+    for (Eigen::Index l = leaves; l < size; ++l) seen_s_.push_back(u.row(l).transpose().array());
+    for (std::size_t i = 0; i < roots_.size(); ++i) {
+      Eigen::Array3d sum = Eigen::Array3d::Zero();
+      double weight = 0.0;
+      for (auto l = seen_start_[i]; l < seen_start_[i + 1]; ++l) {
+        sum += sp->flux_weight[l] * seen_s_[l];
+        weight += sp->flux_weight[l];
+      }
+      mean_s_[i] = weight > 0.0 ? Eigen::Array3d(sum / weight) : Eigen::Array3d::Zero();
     }
   }
   // Radiosity of every element: its leaves' area average (the pull, without the guard).
@@ -777,6 +828,15 @@ void HierarchyBuilder::run() {
   const double mean_rho = area > 0.0 ? std::min(reflected / area, 0.99) : 0.0;
   st.b_ref = area > 0.0 ? emitted / area / (1.0 - mean_rho) : 0.0;
   b_ref_ = st.b_ref_estimate = st.b_ref;
+  seen_start_.assign(r + 1, 0);  // no specular light known before the first solve
+  for (std::int32_t p = 0; p < r && o_.specular_links; ++p)
+    lobes_ = lobes_ || materials_[roots_[p].material].has_lobe();
+  judged_rho_.resize(r);
+  mean_s_.assign(r, Eigen::Array3d::Zero());
+  for (std::int32_t p = 0; p < r; ++p) {
+    const Material& m = materials_[roots_[p].material];
+    judged_rho_[p] = lobes_ && m.has_lobe() ? Eigen::Array3d(m.diffuse + m.specular) : m.diffuse;
+  }
 
   // Pass 0: every facing pair of roots (as the uniform mesh's pair loop), judged with B = E.
   HierarchyPass pass;
@@ -812,6 +872,7 @@ void HierarchyBuilder::run() {
       if (!linked[e.root]) e.exposed = 0.0;
   }
   make_operator();
+  attach_specular();
   pass.links = static_cast<long long>(h_.links_.size());
   pass.elements = static_cast<long long>(el_.size());
   pass.leaves = h_.num_leaves();
@@ -854,6 +915,7 @@ void HierarchyBuilder::run() {
     refine(std::move(again), next);
     link_form_factors(next);
     make_operator();
+    attach_specular();
     next.links = static_cast<long long>(h_.links_.size());
     next.elements = static_cast<long long>(el_.size());
     next.leaves = h_.num_leaves();
@@ -862,6 +924,37 @@ void HierarchyBuilder::run() {
   }
   h_.build_corner_averages(roots_);
   st.seconds = t_start.seconds();
+}
+
+void HierarchyBuilder::attach_specular() {
+  if (!lobes_) return;
+  HierarchyStats& st = h_.stats_;
+  Stopwatch watch;
+  h_.root_ff_ = root_form_factors(h_, materials_);
+  st.root_form_factor_seconds += watch.lap();
+  st.root_form_factors = h_.root_ff_.f.nnz();
+  // The transfer once, on the first pass's root form factors: later passes split links but
+  // keep their pairs of roots, and R_jik is a fraction (each row at most 1) whatever form
+  // factors later normalise the flux weights by.
+  if (!transfer_done_) {
+    h_.transfer_ =
+        compute_specular_transfer(roots_, materials_, h_.root_ff_, caster_, o_.specular);
+    transfer_done_ = true;
+    st.transfer_seconds += watch.lap();
+    st.transfer_entries = h_.transfer_.entries();
+  }
+  RootSpecular sp = build_root_specular(h_, materials_, h_.root_ff_, h_.transfer_);
+  st.specular_links = sp.num_links();
+  st.specular_row_entries = sp.rows.nnz();
+  h_.op_->specular_ = std::make_shared<const RootSpecular>(std::move(sp));
+  st.specular_link_seconds += watch.lap();
+}
+
+void ElementHierarchy::release_transfer() {
+  root_ff_ = FormFactors{};
+  const SpecularStats stats = transfer_.stats;
+  transfer_ = SpecularTransfer{};
+  transfer_.stats = stats;
 }
 
 ElementHierarchy build_hierarchy(const PatchSet& roots, const std::vector<Material>& materials,
@@ -879,12 +972,22 @@ TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy>
   t.layout_.hierarchy = hierarchy;
   const auto leaves = h.num_leaves();
   t.layout_.num_patches = leaves;
-  t.layout_.link_start.assign(leaves + 1, 0);
   t.layout_.flux_weight.resize(leaves);
   t.patch_emission_.resize(leaves);
   for (int l = 0; l < leaves; ++l) {
     t.layout_.flux_weight[l] = kPi * h.elements()[h.element_of_leaf(l)].exposed;
     t.patch_emission_[l] = h.leaves()[l].emission;
+  }
+  // The specular links after the leaves (eq. H3), over root ids: link_start has the layout's
+  // num_patches + 1 entries (there are at least as many leaves as roots), constant past the
+  // last root, so that link_unknown(i, k) takes the root ids a ray hit names.
+  t.layout_.link_start.assign(leaves + 1, 0);
+  if (const RootSpecular* sp = h.op()->specular()) {
+    t.layout_.links = sp->links;
+    for (int r = 0; r <= leaves; ++r)
+      t.layout_.link_start[r] = sp->link_start[std::min(r, h.num_roots())];
+    t.layout_.flux_weight.insert(t.layout_.flux_weight.end(), sp->flux_weight.begin(),
+                                 sp->flux_weight.end());
   }
   // a_max as the uniform operator takes it: the largest albedo bound of a reflecting material.
   for (const auto& m : materials) {
@@ -894,7 +997,7 @@ TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy>
       t.brightest_material_ = m.name;
     }
   }
-  t.weights_.cols = leaves;
+  t.weights_.cols = t.size();
   return t;
 }
 

@@ -87,6 +87,96 @@ void push_tree(const std::vector<std::int32_t>& parent,
 
 }  // namespace
 
+std::size_t RootSpecular::bytes() const {
+  return links.size() * sizeof(Link) + link_start.size() * sizeof(std::int64_t) +
+         flux_weight.size() * sizeof(double) + colour.size() * sizeof(Eigen::Array3f) +
+         reflector.size() * sizeof(std::int32_t) + pair_start.size() * sizeof(std::int64_t) +
+         pair_source.size() * sizeof(std::int32_t) + pair_f.size() * sizeof(float) +
+         pair_link.size() * sizeof(std::int64_t) + pair_reflected.size() * sizeof(float) +
+         entry_start.size() * sizeof(std::int64_t) + entry_pair.size() * sizeof(std::int32_t) +
+         rows.bytes() + receive_start.size() * sizeof(std::int64_t) +
+         receive_entry.size() * sizeof(std::int32_t);
+}
+
+void HierarchicalOperator::receive_specular(const double* s, Eigen::Index width,
+                                            std::int32_t first_tree, std::int32_t last_tree,
+                                            double* h) const {
+  // Eq. H3 (a): along each link r <- s from a reflector's tree, the radiance leaving s toward r
+  // has the specular part S_{root(s)->root(r)} too; it is constant over s (no moments).
+  const RootSpecular& sp = *specular_;
+  for (std::int32_t k = first_tree; k < last_tree; ++k) {
+    if (sp.receive_start[k] < 0) continue;
+    const std::int32_t* link_of = sp.receive_entry.data() + sp.receive_start[k];
+    const std::int32_t first = tree_start_[k], last = tree_start_[k + 1];
+    const std::int64_t e0 = links_.start[first];
+    for (std::int32_t r = first; r < last; ++r) {
+      double* y = h + 3 * width * r;
+      for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
+        const std::int32_t l = link_of[e - e0];
+        if (l < 0) continue;
+        const auto& v = links_.value[e];
+        const double* x = s + width * static_cast<Eigen::Index>(l);
+        for (Eigen::Index c = 0; c < width; ++c) {
+          y[c] += v[0] * x[c];
+          y[width + c] += v[1] * x[c];
+          y[2 * width + c] += v[2] * x[c];
+        }
+      }
+    }
+  }
+}
+
+void HierarchicalOperator::specular_rows(std::int64_t x, const double* b, const double* s,
+                                         Eigen::Index width, int channel, double* lin,
+                                         double* out) const {
+  // Eq. H3 (b): what arrives at reflector i from each root j along its tree's links (the mean
+  // part of each link's gather, weighed by the receiving node's share of i), plus the root link
+  // S_{j->i}; then S_{i->k} = s_i sum_j (R_jik / F_ik) of those.
+  const RootSpecular& sp = *specular_;
+  const std::int32_t i = sp.reflector[x];
+  const std::int64_t p0 = sp.pair_start[x], pairs = sp.pair_start[x + 1] - p0;
+  std::fill(lin, lin + pairs * width, 0.0);
+  const std::int32_t first = tree_start_[i], last = tree_start_[i + 1];
+  const double area = exposed_[first];
+  const std::int64_t e0 = links_.start[first];
+  const std::int32_t* pair_of = sp.entry_pair.data() + sp.entry_start[x];
+  if (area > 0.0) {
+    for (std::int32_t r = first; r < last; ++r) {
+      const double w = exposed_[r] / area;
+      if (!(w > 0.0)) continue;
+      for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
+        const std::int32_t q = pair_of[e - e0];
+        if (q < 0) continue;  // a source whose root form factor rounded to 0
+        const auto& v = links_.value[e];
+        const double f = w * v[0], cu = w * v[3], cv = w * v[4];
+        const double* m = b + 3 * width * static_cast<Eigen::Index>(links_.column[e]);
+        double* y = lin + width * q;
+        for (Eigen::Index c = 0; c < width; ++c)
+          y[c] += f * m[c] + cu * m[width + c] + cv * m[2 * width + c];
+      }
+    }
+  }
+  for (std::int64_t q = 0; q < pairs; ++q) {
+    const std::int64_t l = sp.pair_link[p0 + q];
+    if (l < 0) continue;
+    const double f = sp.pair_f[p0 + q];
+    const double* v = s + width * l;
+    double* y = lin + width * q;
+    for (Eigen::Index c = 0; c < width; ++c) y[c] += f * v[c];
+  }
+  for (auto l = sp.link_start[i]; l < sp.link_start[i + 1]; ++l) {
+    double* y = out + width * (l - sp.link_start[i]);
+    std::fill(y, y + width, 0.0);
+    sp.rows.accumulate_row(l, lin, width, y);
+    const auto& colour = sp.colour[l];
+    if (channel >= 0) {
+      y[0] *= colour[channel];
+    } else {
+      for (Eigen::Index c = 0; c < width; ++c) y[c] *= colour[c % 3];
+    }
+  }
+}
+
 void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index width,
                                  int channel) const {
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
@@ -101,6 +191,11 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
   for (std::int32_t r0 = 0; r0 < n; r0 += kRows)
     gather_rows(links_, b.data(), width, r0, std::min(n, r0 + kRows), h.data());
   const auto leaves_count = static_cast<std::int32_t>(leaves());
+  const double* s = in + width * leaves_count;  // the specular links, after the leaves
+  if (specular_) {
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::int32_t k = 0; k < trees; ++k) receive_specular(s, width, k, k + 1, h.data());
+  }
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::int32_t k = 0; k < trees; ++k)
     push_tree(parent_, centroid_, width, tree_start_[k], tree_start_[k + 1], h.data());
@@ -115,12 +210,24 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
       for (Eigen::Index c = 0; c < width; ++c) y[c] = rho[c % 3] * x[c];
     }
   }
+  if (!specular_) return;
+  const auto reflectors = static_cast<std::int64_t>(specular_->reflector.size());
+#pragma omp parallel
+  {
+    std::vector<double> lin(static_cast<std::size_t>(specular_->max_pairs * width));
+#pragma omp for schedule(dynamic, 1)
+    for (std::int64_t x = 0; x < reflectors; ++x)
+      specular_rows(x, b.data(), s, width, channel, lin.data(),
+                    out + width * (leaves_count + specular_->link_start[specular_->reflector[x]]));
+  }
 }
 
 void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   const Eigen::Index width = 3;
   std::vector<double> b(3 * static_cast<std::size_t>(nodes()) * width), h(b.size());
+  const Eigen::Index leaves_count = leaves();
+  double* s = u.data() + width * leaves_count;  // the specular links, after the leaves
   for (std::int32_t k = 0; k < trees; ++k)
     pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, tree_start_[k],
               tree_start_[k + 1], b.data());
@@ -129,6 +236,7 @@ void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
     // This tree gathers from every other tree's current values; no link joins a tree to
     // itself, so its own old values are not read and the order inside the tree is free.
     gather_rows(links_, b.data(), width, first, last, h.data());
+    if (specular_) receive_specular(s, width, k, k + 1, h.data());
     push_tree(parent_, centroid_, width, first, last, h.data());
     for (std::int32_t m = first; m < last; ++m) {
       const std::int32_t l = node_leaf_[m];
@@ -138,32 +246,68 @@ void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
     pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, first, last,
               b.data());
   }
+  if (!specular_) return;
+  // The reflectors in order, each reading the links already updated in this sweep (a row of
+  // reflector i never reads i's own links: S_{j->i} has j != i).
+  const RootSpecular& sp = *specular_;
+  std::int64_t most = 0;
+  for (const std::int32_t i : sp.reflector)
+    most = std::max(most, sp.link_start[i + 1] - sp.link_start[i]);
+  std::vector<double> lin(static_cast<std::size_t>(sp.max_pairs * width)),
+      row(static_cast<std::size_t>(most * width));
+  for (std::int64_t x = 0; x < static_cast<std::int64_t>(sp.reflector.size()); ++x) {
+    const std::int32_t i = sp.reflector[x];
+    const auto first = sp.link_start[i], count = sp.link_start[i + 1] - first;
+    // Into a buffer first, then in place: a reflector's rows never read its own links, but the
+    // buffer keeps that argument local.
+    specular_rows(x, b.data(), s, width, -1, lin.data(), row.data());
+    for (std::int64_t l = 0; l < count; ++l)
+      for (Eigen::Index c = 0; c < width; ++c)
+        s[width * (first + l) + c] = e(leaves_count + first + l, c) + row[width * l + c];
+  }
 }
 
 std::vector<double> HierarchicalOperator::column_sums(bool with_guard, bool reflectance) const {
   // The flux a unit of flux at leaf l sends along link r <- s, s above l (l included), is
   // rho_r (F_sr + g_sr . (y_l - y_s)) with g_sr = (A'_s / A'_r) c_rs: per node s, the sums
   // K_s = sum rho_r A'_r F_rs / A'_s and their slopes, then for each leaf the chain of its nodes.
+  // A reflector's receiving nodes count d + s sum_k R_jik per source root j (eq. H3 (b)).
   const auto n = static_cast<std::int32_t>(nodes());
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  std::vector<std::int64_t> reflector_of(trees, -1);
+  if (specular_)
+    for (std::int64_t x = 0; x < static_cast<std::int64_t>(specular_->reflector.size()); ++x)
+      reflector_of[specular_->reflector[x]] = x;
   std::vector<Eigen::Array3d> k(n, Eigen::Array3d::Zero()), ku(n, Eigen::Array3d::Zero()),
       kv(n, Eigen::Array3d::Zero());
-  for (std::int32_t r = 0; r < n; ++r) {
-    // The reflectance of r's tree: a tree is one patch, one material, so that of the first leaf
-    // after r in pre-order, which is below r.
-    Eigen::Array3d rho = Eigen::Array3d::Ones();
-    if (reflectance)
-      for (std::int32_t m = r; m < n; ++m)
+  for (std::int32_t t = 0; t < trees; ++t) {
+    const std::int32_t first = tree_start_[t], last = tree_start_[t + 1];
+    // The reflectance of the tree: a tree is one patch, one material, so that of any leaf.
+    const std::int64_t x = reflector_of[t];
+    Eigen::Array3d rho = Eigen::Array3d::Ones(), lobe = Eigen::Array3d::Zero();
+    if (reflectance) {
+      for (std::int32_t m = first; m < last; ++m)
         if (node_leaf_[m] >= 0) {
           rho = rho_[node_leaf_[m]].cast<double>();
           break;
         }
-    for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
-      const std::int32_t s = links_.column[e];
-      if (!(exposed_[s] > 0.0)) continue;
-      const double w = exposed_[r] / exposed_[s];
-      k[s] += rho * (w * links_.value[e][0]);
-      ku[s] += rho * (w * links_.value[e][3]);
-      kv[s] += rho * (w * links_.value[e][4]);
+      if (x >= 0) lobe = specular_->colour[specular_->link_start[t]].cast<double>();
+    }
+    for (std::int32_t r = first; r < last; ++r) {
+      for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
+        const std::int32_t s = links_.column[e];
+        if (!(exposed_[s] > 0.0)) continue;
+        Eigen::Array3d albedo = rho;
+        if (reflectance && x >= 0) {
+          const std::int64_t q = specular_->entry_pair[specular_->entry_start[x] + e -
+                                                       links_.start[first]];
+          if (q >= 0) albedo += lobe * specular_->pair_reflected[specular_->pair_start[x] + q];
+        }
+        const double w = exposed_[r] / exposed_[s];
+        k[s] += albedo * (w * links_.value[e][0]);
+        ku[s] += albedo * (w * links_.value[e][3]);
+        kv[s] += albedo * (w * links_.value[e][4]);
+      }
     }
   }
   std::vector<double> sums(leaves());
@@ -183,7 +327,7 @@ std::size_t HierarchicalOperator::bytes() const {
          node_leaf_.size() * sizeof(std::int32_t) + leaf_node_.size() * sizeof(std::int32_t) +
          tree_start_.size() * sizeof(std::int32_t) + rho_.size() * sizeof(Eigen::Array3f) +
          guard_.size() * sizeof(float) + exposed_.size() * sizeof(double) +
-         centroid_.size() * sizeof(centroid_[0]);
+         centroid_.size() * sizeof(centroid_[0]) + (specular_ ? specular_->bytes() : 0);
 }
 
 }  // namespace polyrad

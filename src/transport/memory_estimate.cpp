@@ -35,8 +35,10 @@ double targets_per_pair(const Material& m, int samples) {
 double system_bytes(double patches, double pairs, double reflector_pairs_targets,
                     const SystemOptions& o) {
   if (o.mesh == MeshKind::kHierarchical) {
+    // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
-    return pairs * kRootPairBytes * std::pow(std::max(1.0, 0.05 / tau), 1.2);
+    const double transfer = o.hierarchy.specular_links ? reflector_pairs_targets * kEntryBytes : 0.0;
+    return pairs * kRootPairBytes * std::pow(std::max(1.0, 0.05 / tau), 1.2) + transfer;
   }
   (void)patches;
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;

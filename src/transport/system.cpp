@@ -38,6 +38,10 @@ SystemSummary RadiositySystem::summary() const {
     h.operator_bytes = hierarchy->op()->bytes();
     h.stats = hierarchy->stats();
     s.hierarchy = h;
+    // The transfer on the roots is released once the operator holds its rows (eq. H3): its
+    // entries and the rows' are the hierarchy's counts.
+    s.specular_entries = h.stats.transfer_entries;
+    s.nnz_specular = h.stats.specular_row_entries;
   }
   return s;
 }
@@ -45,19 +49,22 @@ SystemSummary RadiositySystem::summary() const {
 namespace {
 
 // The hierarchical mesh's stages (transport/hierarchy.h): element trees on the world's patches,
-// links refined pass by pass, T on the leaves. Diffuse transport only: a lobe is refused (a
-// classic world has none).
+// links refined pass by pass; with lobes, the specular links between the roots (eq. H3): root
+// form factors from the links, the transfer on the roots as the uniform mesh computes it, the
+// lobe check; then T on the leaves and the links.
 void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   const World& w = *sys.world;
-  for (const auto& o : w.scene().objects)
-    if (w.materials()[o.material].has_lobe())
-      throw InputError(SourceLocation{w.scene().file},
-                       "object '" + o.name +
-                           "' has a mirror, glossy or Phong material; the "
-                           "hierarchical mesh carries diffuse light only (use --mesh uniform, or "
-                           "--classic for the diffuse part alone)");
+  // (With the hierarchy's specular links off, every material is reduced to its diffuse part.)
+  bool lobes = false;
+  for (const auto& o : w.scene().objects) lobes = lobes || w.materials()[o.material].has_lobe();
+  lobes = lobes && options.hierarchy.specular_links;
+  if (lobes && options.specular_on_the_fly)
+    throw InputError(SourceLocation{w.scene().file},
+                     "--specular-on-the-fly recomputes the uniform mesh's link rows; the "
+                     "hierarchical mesh stores its root links' rows (use --mesh uniform)");
   HierarchyOptions ho = options.hierarchy;
   ho.form_factors = options.form_factors;
+  ho.specular = options.specular;
   auto h = std::make_shared<ElementHierarchy>(
       build_hierarchy(w.patches(), w.materials(), w.caster(), ho));
   const HierarchyStats& st = h->stats();
@@ -71,9 +78,22 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   sys.times.push_back({"hierarchy_oracle", oracle});
   sys.times.push_back({"hierarchy_form_factors", form_factors});
   sys.times.push_back({"hierarchy_pass_solves", solves});
+  if (lobes) {
+    sys.times.push_back({"hierarchy_root_form_factors", st.root_form_factor_seconds});
+    sys.times.push_back({"specular_transfer", st.transfer_seconds});
+    sys.times.push_back({"hierarchy_specular_links", st.specular_link_seconds});
+  }
   sys.times.push_back({"hierarchy", st.seconds});
-  sys.hierarchy = h;
   Stopwatch watch;
+  if (lobes) {
+    // The lobe check reads the transfer's entries (no rays); then only their statistics stay.
+    sys.lobes =
+        check_lobe_resolution(w.scene(), w.patches(), h->root_form_factors(), h->root_transfer());
+    sys.specular.stats = h->root_transfer().stats;
+    h->release_transfer();
+    sys.times.push_back({"lobe_check", watch.lap()});
+  }
+  sys.hierarchy = h;
   sys.transport = hierarchical_transport(h, w.materials());
   sys.times.push_back({"operator", watch.seconds()});
 }

@@ -90,6 +90,15 @@ void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId 
 
 }  // namespace
 
+std::vector<Link> active_specular_links(const PatchSet& patches,
+                                        const std::vector<Material>& materials,
+                                        const FormFactors& ff, const SpecularTransfer& st) {
+  const auto active = active_links(patches, materials, ff, st);
+  std::vector<Link> links(active.size());
+  for (const auto& [key, id] : active) links[id] = Link{key.first, key.second};
+  return links;
+}
+
 Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
   auto first = links.begin() + link_start[i];
   auto last = links.begin() + link_start[i + 1];

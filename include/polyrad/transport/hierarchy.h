@@ -53,8 +53,16 @@
 // linear functions are too coarse), so every column of T sums to at most a_max: section 5's
 // bound, the Jacobi = series identity and the precompute hold unchanged.
 //
+// Lobes (eq. H3, RootSpecular below): mirror, glossy and Phong light moves on link unknowns
+// S_{i->k} between ROOTS, with the uniform mesh's transfer computed on the roots (once, after
+// the first pass); the element links carry B_s + S_{root(s)->root(r)}, so the leaves receive
+// specular light as they receive diffuse light, and a reflector's rows read what its tree's
+// links bring from each root. The solves between passes carry the links; the oracle judges a
+// reflector's source end by B + S and its receiving end by d + s. Unknowns: the leaves, then
+// the links.
+//
 //   ElementHierarchy h = build_hierarchy(patches, scene.materials, caster, {});
-//   TransportOperator t = hierarchical_transport(h, scene.materials);   // unknowns = leaves
+//   TransportOperator t = hierarchical_transport(h, scene.materials);   // leaves, then links
 //   (h a std::shared_ptr<const ElementHierarchy>: the operator's layout keeps it)
 //   SolveResult r = solve(t, t.emission());
 //   LeafPoint p = h.leaf_at(hit.patch, hit.u, hit.v);                   // what a hit reads
@@ -63,7 +71,10 @@
 // refinement costs ten point form factors and at most visibility_rays rays per candidate, and
 // each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 300 bytes per
 // element, 56 per link while building and 48 in T (both directions, five floats and an index
-// each); one application reads every link twice and each tree three times.
+// each); one application reads every link twice and each tree three times. Lobes add the
+// uniform mesh's transfer on the roots (2 x samples rays per facing pair into a reflector),
+// 8 bytes per entry of a root link's row and 4 per element link entry of the trees that
+// reflect or receive specular light.
 #pragma once
 
 #include <algorithm>
@@ -103,6 +114,10 @@ struct HierarchyOptions {
   // The pair form factor of each link (eq. 4), as the uniform mesh computes it.
   FormFactorOptions form_factors;
   std::uint64_t seed = 5;  // the oracle's visibility rays
+  // Lobes (eq. H3): the transfer on the roots, computed once after the first pass; off, every
+  // material is reduced to its diffuse part.
+  bool specular_links = true;
+  SpecularOptions specular;
 };
 
 // One node of an element tree.
@@ -168,30 +183,102 @@ struct HierarchyStats {
   // how many leaves it acted.
   double guard_max_excess = 0.0;
   long long guard_leaves = 0;
+  // The specular part (eq. H3): the root form factors' and the transfer's seconds, the
+  // transfer's entries, the root links and their rows' entries.
+  double root_form_factor_seconds = 0.0, transfer_seconds = 0.0, specular_link_seconds = 0.0;
+  long long transfer_entries = 0, specular_links = 0, specular_row_entries = 0;
+  long long root_form_factors = 0;  // non-zeros of the reflectors' rows
   double seconds = 0.0;
 };
 
-// The operator of eq. H2 on the leaves (see the top of this file). Immutable once built; what
-// TransportOperator holds and forwards to when its unknowns are a hierarchy's leaves.
+// The specular part of the hybrid (section 12.6, eq. H3): link unknowns S_{i->k} between ROOTS,
+// i a root whose material has a lobe, k a root it sends specular light to, with the uniform
+// mesh's transfer R_jik computed on the roots (specular_transfer.h) from root form factors that
+// are the sums of the etendues of the links between the two trees (root_form_factors). Two
+// couplings join it to the leaves, both along the element links, which carry
+// L_{s->r} = B_s + S_{root(s)->root(r)}:
+//   (a) receive: a node r of root k gathers F_rs S_{j->k} (and its slopes g_rs S_{j->k}) along
+//       each of its links r <- s with s in the tree of reflector j, so the specular light is
+//       spread over k's leaves as the diffuse light from j is; the links' etendues sum to
+//       A'_k F_kj, so k receives exactly the flux tau_jk S_{j->k};
+//   (b) reflect: the specular rows read what arrives at i from root j along the links of i's
+//       tree, not B_j at the root's mean:
+//           I_ij = sum_{nodes r of i} (A'_r / A'_i) sum_{links r <- s, s in j} (F_rs m_s + c_rs . q_s)
+//           S_{i->k} = s_i sum_j (R_jik / F_ik) (I_ij + F_ij S_{j->i})
+//       (with leaves constant over j, I_ij = F_ij B_j and this is eq. 7).
+// Why it keeps section 5's bound: each unit of flux that reaches reflector i along a link is
+// split into d_i (its leaves' diffuse rows, eq. H2) and s_i sum_k R_jik <= s_i (its links), so a
+// leaf's column is the guarded form factors from its place, each weighed by its receiver's
+// d + s sum_k R <= a_max; a link's column is d_k + s_k sum R <= a_max likewise.
+struct RootSpecular {
+  // The link unknowns (unknown leaves + l), sorted by (from, to) over root ids; the links of
+  // root i are [link_start[i], link_start[i + 1]).
+  std::vector<Link> links;
+  std::vector<std::int64_t> link_start;
+  std::vector<double> flux_weight;     // tau_ik = pi A'_i F_ik of each link
+  std::vector<Eigen::Array3f> colour;  // s_i of each link's reflector
+  // The reflector roots that have links, each with its pairs (i, j): the roots j whose trees
+  // share links with i's, in ascending j: [pair_start[x], pair_start[x + 1]) for reflector x.
+  std::vector<std::int32_t> reflector;
+  std::vector<std::int64_t> pair_start;
+  std::vector<std::int32_t> pair_source;  // j
+  std::vector<float> pair_f;              // F_ij, the root form factor
+  std::vector<std::int64_t> pair_link;    // the link index of S_{j->i}, -1 if none
+  std::vector<float> pair_reflected;      // sum over i's links k of R_jik (colour excluded)
+  // For each link entry of the rows of reflector x's tree nodes (in the operator's link rows,
+  // from the first node's first entry on), its local pair index: entry_start[x] + offset.
+  std::vector<std::int64_t> entry_start;
+  std::vector<std::int32_t> entry_pair;
+  Csr<float> rows;  // row l: (local pair q of l's reflector, R_jik / F_ik)
+  // (a): for each tree k that receives specular light (a root with a diffuse part that some
+  // link reaches), the link S_{root(s)->k} of each entry r <- s of its nodes' rows, -1 for none:
+  // receive_entry[receive_start[k] + offset]; receive_start[k] = -1 for the other trees.
+  std::vector<std::int64_t> receive_start;
+  std::vector<std::int32_t> receive_entry;
+  std::int64_t max_pairs = 0;  // the most pairs of one reflector (its gather buffer)
+
+  std::int64_t num_links() const { return static_cast<std::int64_t>(links.size()); }
+  std::size_t bytes() const;
+};
+
+// The operator of eq. H2 on the leaves (see the top of this file), with the root link unknowns
+// of eq. H3 after them when the scene has lobes. Immutable once built; what TransportOperator
+// holds and forwards to when its unknowns are a hierarchy's leaves.
 class HierarchicalOperator {
  public:
   Eigen::Index leaves() const { return static_cast<Eigen::Index>(leaf_node_.size()); }
   Eigen::Index nodes() const { return static_cast<Eigen::Index>(parent_.size()); }
+  // Unknowns: the leaves, then the specular links.
+  Eigen::Index size() const { return leaves() + (specular_ ? specular_->num_links() : 0); }
   std::int64_t link_entries() const { return links_.nnz(); }
+  const RootSpecular* specular() const { return specular_.get(); }
 
-  // out = T in (eq. H2), width values per unknown (a Field: 3; a block: 3 C; one channel: 1,
-  // then `channel` picks the reflectance). in and out must not alias.
+  // out = T in (eq. H2, H3), width values per unknown (a Field: 3; a block: 3 C; one channel:
+  // 1, then `channel` picks the reflectance). in and out must not alias.
   void apply(const double* in, double* out, Eigen::Index width, int channel = -1) const;
   // One Gauss-Seidel sweep, root tree by root tree: each tree gathers from the current values
-  // of every other (its own links never reach itself), then pushes, reflects and pulls again.
+  // of every other (its own links never reach itself) and the current specular links, then
+  // pushes, reflects and pulls again; then the reflectors' link rows in order.
   void gauss_seidel_sweep(const Field& e, Field& u) const;
   // Flux-form column sums of T per leaf, the largest channel's (with reflectance = false, the
-  // form factors' alone: what the guard holds to 1), with or without the guard.
+  // form factors' alone: what the guard holds to 1), with or without the guard. A reflector's
+  // receivers count d + s sum_k R_jik.
   std::vector<double> column_sums(bool with_guard, bool reflectance = true) const;
   std::size_t bytes() const;
 
  private:
   friend class HierarchyBuilder;
+  friend class ElementHierarchy;
+  friend RootSpecular build_root_specular(const ElementHierarchy&, const std::vector<Material>&,
+                                          const FormFactors&, const SpecularTransfer&);
+  // (a) of eq. H3 into the gathered functions h of the root nodes of trees [first, last).
+  void receive_specular(const double* s, Eigen::Index width, std::int32_t first_tree,
+                        std::int32_t last_tree, double* h) const;
+  // (b) of eq. H3 for reflector x: its link rows from the pulled values b and the links s,
+  // written to out (colour, or one channel's); lin holds max_pairs x width doubles.
+  void specular_rows(std::int64_t x, const double* b, const double* s, Eigen::Index width,
+                     int channel, double* lin, double* out) const;
+  std::shared_ptr<const RootSpecular> specular_;
   // Nodes in pre-order, tree after tree: a parent before its children.
   std::vector<std::int32_t> parent_;
   std::vector<float> share_;             // A'_n / A'_parent(n), the pull weight (0 at a root)
@@ -223,6 +310,13 @@ class ElementHierarchy {
   std::int32_t element_of_leaf(int leaf) const { return leaf_element_[leaf]; }
   std::shared_ptr<const HierarchicalOperator> op() const { return op_; }
   const HierarchyStats& stats() const { return stats_; }
+  // The roots (the uniform mesh the trees stand on).
+  const PatchSet& roots() const { return *roots_; }
+  // With lobes (eq. H3): the root form factors of the last pass and the transfer computed after
+  // the first, for the lobe check and the report (release_transfer frees their entries).
+  const FormFactors& root_form_factors() const { return root_ff_; }
+  const SpecularTransfer& root_transfer() const { return transfer_; }
+  void release_transfer();
 
   // The leaf under parameters (u, v) of root patch `root` (Patch::point's parameters; a quad's
   // ray-caster parameters are first moved onto its bilinear map, which differs from Embree's
@@ -245,6 +339,8 @@ class ElementHierarchy {
   int num_roots_ = 0;
   std::shared_ptr<HierarchicalOperator> op_;
   HierarchyStats stats_;
+  FormFactors root_ff_;
+  SpecularTransfer transfer_;
   // Smooth shading: entries of leaf corner 4 l + c are [corner_start_[4l+c],
   // corner_start_[4l+c+1]).
   std::vector<std::int64_t> corner_start_;
@@ -252,14 +348,29 @@ class ElementHierarchy {
 };
 
 // Builds the trees on the uniform mesh `roots` (which the caster was built on, and which must
-// outlive the hierarchy), links them and refines them pass by pass. Only the diffuse part of
-// each material is transported (a material with a lobe is reduced to it).
+// outlive the hierarchy), links them and refines them pass by pass. With lobes (and
+// options.specular_links), the specular transfer on the roots is computed after the first pass
+// and the root links join the operator (eq. H3): the solves between passes carry them, and the
+// oracle judges a link from a reflector by B_s + S_{root(s)->root(r)}.
 ElementHierarchy build_hierarchy(const PatchSet& roots, const std::vector<Material>& materials,
                                  const RayCaster& caster, const HierarchyOptions& options = {});
 
-// T over the hierarchy's leaves (unknown l = leaf l, no link unknowns), with TransportOperator's
-// whole contract: apply on fields and blocks, Gauss-Seidel, flux weights pi A'_l, a_max.
-// Its layout holds the hierarchy, so that a gather of it reads leaves.
+// The form factors between the roots of a hierarchy that a specular transfer on the roots
+// needs (section 12.6): the rows of the roots whose material has a lobe, each F_ij the sum of
+// the etendues of the links between the two trees over A'_i (so a tree of one level gives the
+// uniform mesh's), and A' of every root. Other rows are empty. No rays.
+FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Material>& materials);
+
+// The specular part of eq. H3 from the root form factors and the transfer computed on them
+// (compute_specular_transfer on the roots): the active links, their rows, both couplings.
+RootSpecular build_root_specular(const ElementHierarchy& h, const std::vector<Material>& materials,
+                                 const FormFactors& roots, const SpecularTransfer& transfer);
+
+// T over the hierarchy's leaves (unknown l = leaf l), then its specular links if it has them
+// (unknown leaves + l, link l = S_{i->k} between roots), with TransportOperator's whole
+// contract: apply on fields and blocks, Gauss-Seidel, flux weights (pi A'_l, tau_ik), a_max.
+// Its layout holds the hierarchy, so that a gather of it reads leaves; link_unknown(i, k) takes
+// root ids, as a ray hit names them.
 TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy> h,
                                          const std::vector<Material>& materials);
 

@@ -10,7 +10,8 @@
 //            (entries: each reflector patch's visible partners times the targets a pair
 //            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe)
 //            a hierarchy: 600 bytes a visible root pair at link tolerance 0.05, growing as
-//            (0.05 / tau)^1.2 as the tolerance tightens
+//            (0.05 / tau)^1.2 as the tolerance tightens, and with lobes the transfer on
+//            its roots as above
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images
 // Visible pairs: before meshing, the pairs of faces that face each other, weighted by their

@@ -149,6 +149,14 @@ class TransportOperator {
 void apply_weighted_rows(const Csr<float>& weights, const std::vector<Eigen::Array3f>& row_colour,
                          const FieldBlock& in, FieldBlock& out);
 
+// Which links i -> k carry specular radiance (section 3): the fixed point over the transfer's
+// entries (j, i, k) whose source can be bright, B_j of an emitter or of a diffuse reflector, or
+// an active link j -> i. Sorted by (from, to). build_transport's links, and the hierarchy's
+// (hierarchy.h, section 12.6), which runs it on its roots.
+std::vector<Link> active_specular_links(const PatchSet& patches,
+                                        const std::vector<Material>& materials,
+                                        const FormFactors& ff, const SpecularTransfer& st);
+
 // Builds T from the form factors and, if given, the specular transfer (which also decides the
 // links). With on_the_fly the link rows are not stored but recomputed at every application.
 // Materials are indexed by Patch::material.
