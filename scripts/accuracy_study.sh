@@ -8,7 +8,9 @@
 #   ./scripts/accuracy_study.sh [DIR] [SPP] [SCENES...]
 #     DIR     output (default out/accuracy)      SPP  reference samples per pixel (default 4096)
 #     SCENES  default: cornell-box cornell-mirror-cube cornell-glossy
-# $POLYRAD names the binary (default: a Release build through scripts/build.sh).
+# $POLYRAD names the binary (default: a Release build through scripts/build.sh); $TOLERANCES the
+# link tolerances of the hierarchical runs (final gather, each patch size as the roots; default
+# "0.1 0.05 0.02"; empty: none), named SCENE-pSIZE-hTOL.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:-out/accuracy}"
@@ -23,7 +25,7 @@ fi
 mkdir -p "$out"
 table="$out/accuracy.md"
 {
-  echo "| scene | patch size | patches | gather | relative RMSE | mean relative error | relative L1 | largest region difference | time (s) |"
+  echo "| scene | patch size | elements | gather | relative RMSE | mean relative error | relative L1 | largest region difference | time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|"
 } > "$table.tmp"
 for scene in "${scenes[@]}"; do
@@ -34,10 +36,13 @@ for scene in "${scenes[@]}"; do
     "$POLYRAD" --quiet render "$file" --method pathtrace --spp "$spp" -o "$ref" --report "$out/$scene-pt$spp.json"
   fi
   for size in 100 50 25; do
-    for read in patch-smooth patch-flat final; do
+    reads=(patch-smooth patch-flat final)
+    for tol in ${TOLERANCES-0.1 0.05 0.02}; do reads+=("h$tol"); done
+    for read in "${reads[@]}"; do
       case "$read" in
         patch-*) flags=(--gather patch --diffuse "${read#patch-}") ;;
         final) flags=(--gather final) ;;
+        h*) flags=(--gather final --mesh hierarchical --link-tolerance "${read#h}") ;;
       esac
       img="$out/$scene-p$size-$read.exr"
       "$POLYRAD" --quiet render "$file" --patch-size "$size" "${flags[@]}" --tolerance 1e-6 \
@@ -51,7 +56,8 @@ r = json.load(open(f"{out}/{scene}-p{size}-{shading}.json"))
 c = json.load(open(f"{out}/{scene}-p{size}-{shading}-cmp.json"))["comparison"]
 worst = max(c["regions"], key=lambda g: abs(g["luminance_difference"]))
 total = r["seconds"]["total"]
-print(f"| {scene} | {size} | {r['system']['patches']} | {shading} | {c['relative_rmse']:.3f} | "
+h = r["system"].get("hierarchy")
+print(f"| {scene} | {size} | {h['leaves'] if h else r['system']['patches']} | {shading} | {c['relative_rmse']:.3f} | "
       f"{c['mean_relative_error']:.3f} | {c['relative_l1']:.3f} | "
       f"{worst['name']} {100 * worst['luminance_difference']:+.1f}% | {total:.1f} |")
 PY

@@ -9,7 +9,10 @@
 #     SCENE      default scenes/cornell-box.json (with lobes, e.g. cornell-mirror-cube, the
 #                hierarchy carries them on root links)
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh);
-# $UNIFORM_SIZES and $TOLERANCES override the runs (default "50 25 17" and "0.2 0.1 0.05 0.02").
+# $UNIFORM_SIZES and $TOLERANCES override the runs (default "50 25 17" and "0.2 0.1 0.05 0.02");
+# $GATHER the camera gather of every run (default final; patch reads the mesh at each pixel).
+# Also hierarchy.png: links, peak memory and wall time against elements for both meshes, and
+# the image error against wall time.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:-out/hierarchy}"
@@ -25,12 +28,13 @@ if [ ! -f "$ref" ]; then
   echo "hierarchy study: path tracing $name at 4096 spp" >&2
   "$POLYRAD" --quiet render "$scene" --method pathtrace --spp 4096 -o "$ref"
 fi
+gather="${GATHER:-final}"
 run() {  # run TAG ARGS...: render, time it, compare with the reference
   local tag="$1"
   shift
   local img="$out/$name-$tag.exr"
   /usr/bin/time -f "%e" -o "$out/$name-$tag.wall" "$POLYRAD" --quiet render "$scene" --tolerance 1e-6 \
-    -o "$img" --report "$out/$name-$tag.json" "$@"
+    --gather "$gather" -o "$img" --report "$out/$name-$tag.json" "$@"
   "$POLYRAD" --quiet compare "$img" "$ref" --scene "$scene" --report "$out/$name-$tag-cmp.json" \
     --side-by-side "$out/$name-$tag-sbs.png" > /dev/null
   echo "$tag" >> "$out/runs.txt"
@@ -42,9 +46,10 @@ done
 for tol in ${TOLERANCES:-0.2 0.1 0.05 0.02}; do
   run "hierarchical-$tol" --mesh hierarchical --link-tolerance "$tol"
 done
-run "hierarchical-0.05-flat" --mesh hierarchical --link-tolerance 0.05 --diffuse flat
+# The patch gather reads smooth B by default; the flat reading beside it.
+[ "$gather" = patch ] && run "hierarchical-0.05-flat" --mesh hierarchical --link-tolerance 0.05 --diffuse flat
 uptime > "$out/load.txt"
-python3 - "$out" "$name" <<'EOF'
+python3 - "$out" "$name" "$gather" <<'EOF'
 import json, sys
 out, name = sys.argv[1], sys.argv[2]
 rows = []
@@ -94,4 +99,52 @@ with open(f"{out}/hierarchy.csv", "w") as f:
         f.write(f"{x['tag']},{x['elements']},{x['links']},{x['slinks']},{x['build']:.3f},{x['solve']:.3f},{x['gather']:.3f},"
                 f"{x['wall']:.2f},{x['peak']:.3f},{x['rmse']:.4f},{x['mre']:.4f},{x['l1']:.4f}\n")
 print(open(f"{out}/hierarchy.md").read())
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+fig, axes = plt.subplots(1, 4, figsize=(17, 4.2))
+kinds = [("uniform", "o-", "uniform (patch size)"), ("hierarchical", "s-", "hierarchical (link tolerance)")]
+panels = [("links", "links (visible pairs / element links)"), ("peak", "peak memory (GiB)"),
+          ("wall", "wall time of the render (s)")]
+for ax, (key, label) in zip(axes, panels):
+    for kind, style, legend in kinds:
+        pts = sorted((x for x in rows if x["tag"].startswith(kind) and not x["tag"].endswith("flat")),
+                     key=lambda x: x["elements"])
+        if not pts:
+            continue
+        ax.plot([x["elements"] for x in pts], [x[key] for x in pts], style, label=legend)
+        for x in pts:
+            ax.annotate(x["tag"].split("-")[1], (x["elements"], x[key]), fontsize=7, xytext=(3, 3),
+                        textcoords="offset points")
+    if key == "links":  # slopes 1 and 2 through the first uniform point, for the eye
+        u = [x for x in rows if x["tag"].startswith("uniform")]
+        if u:
+            x0, y0 = u[0]["elements"], u[0]["links"]
+            xs = [x0, max(x["elements"] for x in rows)]
+            ax.plot(xs, [y0 * (v / x0) for v in xs], ":", color="grey", label="slope 1")
+            ax.plot(xs, [y0 * (v / x0) ** 2 for v in xs], "--", color="grey", label="slope 2")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("elements (patches or leaves)")
+    ax.set_ylabel(label)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+ax = axes[3]
+for kind, style, legend in kinds:
+    pts = sorted((x for x in rows if x["tag"].startswith(kind) and not x["tag"].endswith("flat")),
+                 key=lambda x: x["wall"])
+    if pts:
+        ax.plot([x["wall"] for x in pts], [x["rmse"] for x in pts], style, label=legend)
+        for x in pts:
+            ax.annotate(x["tag"].split("-")[1], (x["wall"], x["rmse"]), fontsize=7, xytext=(3, 3),
+                        textcoords="offset points")
+ax.set_xscale("log")
+ax.set_xlabel("wall time of the render (s)")
+ax.set_ylabel("relative RMSE against the reference")
+ax.grid(True, which="both", alpha=0.3)
+ax.legend(fontsize=7)
+fig.suptitle(f"{name}: uniform against hierarchical meshes, {sys.argv[3]} gather")
+fig.tight_layout()
+fig.savefig(f"{out}/hierarchy.png", dpi=100)
 EOF
