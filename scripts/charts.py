@@ -34,7 +34,7 @@ COLUMNS = [
     "aposteriori_estimate_rel", "solution_error_flux_rel", "error_vs_converged_rel_l1",
     "error_vs_reference_rel_l1",
 ]
-TEXT_COLUMNS = {"method", "precision"}
+TEXT_COLUMNS = {"method", "precision", "mesh"}  # "mesh" and "link_tolerance" may be absent
 
 # One colour and marker per method, used in every chart.
 STYLE = {
@@ -90,6 +90,23 @@ def caption(fig, info):
     ]
     text = "\n".join(textwrap.wrap("; ".join(parts), 170))
     fig.text(0.5, 0.005, text, ha="center", va="bottom", fontsize=7.5, color="0.3")
+
+
+def discretisation(r):
+    """The mesh a row belongs to, as a sort key: uniform meshes from coarse to fine, then the
+    hierarchical ones by root patch size and link tolerance (older sweeps have no mesh column)."""
+    tol = r.get("link_tolerance", math.nan)
+    hierarchical = r.get("mesh", "uniform") == "hierarchical"
+    return (1 if hierarchical else 0, -r["patch_size_scene_units"], -(tol if finite(tol) else 0.0))
+
+
+def discretisation_title(sel):
+    r = sel[0]
+    patches = int(r["patches"])
+    if r.get("mesh", "uniform") == "hierarchical":
+        return (f"hierarchical, link tolerance {r['link_tolerance']:g} on patch size "
+                f"{r['patch_size_scene_units']:g} ({patches} leaves)")
+    return f"patch size {r['patch_size_scene_units']:g} ({patches} patches)"
 
 
 def finite(x):
@@ -268,19 +285,19 @@ def error_time_panel(ax, rows, error_key, title, with_converged):
 
 
 def chart_error_vs_time(rows, info, out):
-    sizes = sorted({r["patch_size_scene_units"] for r in rows}, reverse=True)
+    sizes = sorted({discretisation(r) for r in rows})
     height = 7.0 * len(sizes) + 1.6  # panels, then 1.2 in of title and legend, 0.4 of caption
     fig, axes = plt.subplots(len(sizes), 2, figsize=(15, height), squeeze=False)
     ylabel = "relative L1 error of the image, sum|a-b| / sum|b| (log)"
     reference = info.get("reference", "").split(",")[1:2]
     for i, size in enumerate(sizes):
-        sel = [r for r in rows if r["patch_size_scene_units"] == size]
-        patches = int(sel[0]["patches"])
+        sel = [r for r in rows if discretisation(r) == size]
+        title = discretisation_title(sel)
         error_time_panel(axes[i][0], sel, "error_vs_converged_rel_l1",
-                         f"patch size {size:g} ({patches} patches): against the converged "
-                         f"solution of the same patches", with_converged=False)
+                         f"{title}: against the converged solution of the same mesh",
+                         with_converged=False)
         error_time_panel(axes[i][1], sel, "error_vs_reference_rel_l1",
-                         f"patch size {size:g} ({patches} patches): against the path-traced "
+                         f"{title}: against the path-traced "
                          f"reference ({''.join(reference).strip() or 'high spp'})", with_converged=True)
         for ax in axes[i]:
             ax.set_ylabel(ylabel)
@@ -304,11 +321,11 @@ def chart_error_vs_time(rows, info, out):
 # ---- chart (b): error against order K ----------------------------------------------------------
 
 def chart_error_vs_order(rows, info, out):
-    sizes = sorted({r["patch_size_scene_units"] for r in rows if r["method"] == "series"}, reverse=True)
+    sizes = sorted({discretisation(r) for r in rows if r["method"] == "series"})
     fig, axes = plt.subplots(1, max(1, len(sizes)), figsize=(6.5 * max(1, len(sizes)), 5.6), squeeze=False)
     base = baseline_variant(rows)
     for ax, size in zip(axes[0], sizes):
-        sel = [r for r in rows if r["method"] == "series" and r["patch_size_scene_units"] == size]
+        sel = [r for r in rows if r["method"] == "series" and discretisation(r) == size]
         plain = sorted((r for r in sel if (r["drop_fraction"], r["precision"]) == base),
                        key=lambda r: r["order_K"])
         ks = [r["order_K"] for r in plain]
@@ -354,8 +371,7 @@ def chart_error_vs_order(rows, info, out):
         ax.set_yscale("log")
         ax.set_xlabel("order K of the series (terms T^0 .. T^K)")
         ax.set_ylabel("relative error (log)")
-        patches = int(sel[0]["patches"]) if sel else 0
-        ax.set_title(f"patch size {size:g} ({patches} patches)", fontsize=10)
+        ax.set_title(discretisation_title(sel) if sel else "", fontsize=10)
         if ks:
             ax.set_xticks(ks)
         ax.grid(True, which="major", alpha=0.3)
@@ -371,6 +387,7 @@ def chart_error_vs_order(rows, info, out):
 # ---- chart (c): cost against patch count -------------------------------------------------------
 
 def chart_cost_vs_patches(rows, info, out):
+    rows = [r for r in rows if r.get("mesh", "uniform") != "hierarchical"]  # the uniform meshes' growth
     fig, axes = plt.subplots(1, 3, figsize=(18, 5.6))
     base = baseline_variant(rows)
     series = [r for r in rows if r["method"] == "series" and base

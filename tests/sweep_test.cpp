@@ -89,8 +89,8 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
   std::string scene = tiny_scene(dir);
   std::string out = (dir / "sweep").string();
   const std::string knobs =
-      " --patch-sizes 200,150 --orders 0,2,8 --drops 0,1e-3 --precisions float,half --sweeps 1,4"
-      " --spp 1,2 --repeats 2";
+      " --patch-sizes 200,150 --link-tolerances 0.2 --orders 0,2,8 --drops 0,1e-3"
+      " --precisions float,half --sweeps 1,4 --spp 1,2 --repeats 2";
   CommandRun r = run_cli("sweep " + scene + " --out " + out + knobs + " --reference-spp 8");
   ASSERT_EQ(r.code, 0) << r.err;
 
@@ -110,13 +110,26 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
     EXPECT_TRUE(has(csv.header, column))
         << "charts.py reads '" << column << "', the sweep lacks it";
 
-  // Per patch size: the converged row, 2 solvers x 2 sweep counts, 3 orders x 2 drops x 2
-  // precisions, 2 path-traced images.
-  ASSERT_EQ(csv.rows.size(), 2u * (1 + 4 + 12 + 2));
+  // Per mesh (patch sizes 200 and 150, and the hierarchy on the 200 patches): the converged
+  // row, 2 solvers x 2 sweep counts, 3 orders x 2 drops x 2 precisions, 2 path-traced images.
+  ASSERT_EQ(csv.rows.size(), 3u * (1 + 4 + 12 + 2));
   std::map<std::string, int> methods;
+  double uniform_200_patches = 0.0, leaves = 0.0;
+  int hierarchical = 0;
   for (size_t i = 0; i < csv.rows.size(); ++i) {
     const std::string& m = csv.rows[i].at("method");
     ++methods[m];
+    if (csv.rows[i].at("mesh") == "hierarchical") {
+      ++hierarchical;
+      EXPECT_EQ(csv.number(i, "link_tolerance"), 0.2) << i;
+      EXPECT_EQ(csv.number(i, "patch_size_scene_units"), 200.0) << i;
+      leaves = csv.number(i, "patches");
+    } else {
+      EXPECT_EQ(csv.rows[i].at("mesh"), "uniform") << i;
+      EXPECT_TRUE(csv.rows[i].at("link_tolerance").empty()) << i;
+      if (csv.number(i, "patch_size_scene_units") == 200.0)
+        uniform_200_patches = csv.number(i, "patches");
+    }
     EXPECT_GT(csv.number(i, "image_seconds"), 0.0) << i;
     EXPECT_GE(csv.number(i, "error_vs_reference_rel_l1"), 0.0) << i;
     if (m == "pathtrace") continue;
@@ -135,11 +148,13 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
       EXPECT_LT(csv.number(i, "error_vs_converged_rel_l1"), 0.02) << i;
     }
   }
-  EXPECT_EQ(methods["series"], 24);
-  EXPECT_EQ(methods["jacobi"], 4);
-  EXPECT_EQ(methods["gauss-seidel"], 4);
-  EXPECT_EQ(methods["pathtrace"], 4);
-  EXPECT_EQ(methods["converged"], 2);
+  EXPECT_EQ(methods["series"], 36);
+  EXPECT_EQ(methods["jacobi"], 6);
+  EXPECT_EQ(methods["gauss-seidel"], 6);
+  EXPECT_EQ(methods["pathtrace"], 6);
+  EXPECT_EQ(methods["converged"], 3);
+  EXPECT_EQ(hierarchical, 19);
+  EXPECT_GT(leaves, uniform_200_patches);  // the hierarchy's leaves refine the 200 patches
   std::string machine = read_text(std::filesystem::path(out) / "machine.txt");
   for (const char* key : {"machine: ", "threads: ", "date: ", "reference: "})
     EXPECT_NE(machine.find(key), std::string::npos) << key << "\n" << machine;
@@ -184,7 +199,10 @@ TEST(Sweep, BadInputIsExitTwoAndWritesNothing) {
            "sweep " + scene + " --out " + out + " --precisions double",
            "sweep " + scene + " --out " + out + " --patch-sizes 0",
            "sweep " + scene + " --out " + out + " --drops 1.5",
-           "sweep " + scene + " --out " + out + " --spp 0", "sweep " + scene + " --out " + file,
+           "sweep " + scene + " --out " + out + " --spp 0",
+           "sweep " + scene + " --out " + out + " --link-tolerances 0",
+           "sweep " + scene + " --out " + out + " --link-tolerances x",
+           "sweep " + scene + " --out " + file,
            "sweep " + (dir / "none.json").string() + " --out " + out, "sweep " + scene}) {
     CommandRun r = run_cli(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;

@@ -50,7 +50,9 @@ ErrorFigures image_error(const Image& a, const Image& b) {
 // One point of the sweep. NaN and negative integers mean "does not apply" (an empty cell).
 struct SweepRow {
   std::string method;  // series | jacobi | gauss-seidel | converged | pathtrace
+  std::string mesh;    // uniform | hierarchical
   double patch_size = kNaN;
+  double link_tolerance = kNaN;  // hierarchical meshes
   long long patches = -1, unknowns = -1;
   int order = -1;
   double drop = kNaN;
@@ -86,7 +88,9 @@ using Column = std::pair<const char*, std::function<std::string(const SweepRow&)
 const std::vector<Column>& columns() {
   static const std::vector<Column> c = {
       {"method", [](const SweepRow& r) { return r.method; }},
+      {"mesh", [](const SweepRow& r) { return r.mesh; }},
       {"patch_size_scene_units", [](const SweepRow& r) { return cell(r.patch_size); }},
+      {"link_tolerance", [](const SweepRow& r) { return cell(r.link_tolerance); }},
       {"patches", [](const SweepRow& r) { return cell(r.patches); }},
       {"unknowns", [](const SweepRow& r) { return cell(r.unknowns); }},
       {"order_K", [](const SweepRow& r) { return cell(static_cast<long long>(r.order)); }},
@@ -143,12 +147,29 @@ struct PathTracedPoint {
   double seconds;
 };
 
-void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_size,
-                      const Image& reference, const std::vector<PathTracedPoint>& traced,
-                      std::vector<SweepRow>& rows) {
-  std::fprintf(stderr, "polyrad sweep: patch size %g\n", patch_size);
+// One mesh of the sweep: a uniform one at a patch size, or a hierarchical one on its patches.
+struct Discretisation {
+  double patch_size = kNaN;
+  SystemOptions system;
+  std::string label() const {
+    char text[96];
+    if (system.mesh == MeshKind::kHierarchical)
+      std::snprintf(text, sizeof text, "patch size %g, hierarchical, link tolerance %g", patch_size,
+                    system.hierarchy.link_tolerance);
+    else
+      std::snprintf(text, sizeof text, "patch size %g", patch_size);
+    return text;
+  }
+};
+
+void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discretisation& d,
+                          const Image& reference, const std::vector<PathTracedPoint>& traced,
+                          std::vector<SweepRow>& rows) {
+  const double patch_size = d.patch_size;
+  const std::string label = d.label();
+  std::fprintf(stderr, "polyrad sweep: %s\n", label.c_str());
   Stopwatch watch;
-  auto sys = build_system(World::build(scene, {.patch_size = patch_size}));
+  auto sys = build_system(World::build(scene, {.patch_size = patch_size}), d.system);
   const double system_seconds = watch.seconds();
   const TransportOperator& t = sys->transport;
   const World& world = *sys->world;
@@ -165,8 +186,7 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
   Stopwatch converged_watch;
   SolveResult converged = solve(t, e, tight);
   if (!converged.ok())
-    throw NumericalError("patch size " + std::to_string(patch_size) +
-                         ": the converged solution failed: " + converged.message);
+    throw NumericalError(label + ": the converged solution failed: " + converged.message);
   const std::vector<Rgb> emission = scene_emission(world.patches());
   const Image converged_image = apply_gather(gather, converged.u, emission);
   const double converged_seconds = converged_watch.seconds();
@@ -177,8 +197,10 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
   auto base_row = [&](const char* method) {
     SweepRow r;
     r.method = method;
+    r.mesh = enum_name(d.system.mesh);
     r.patch_size = patch_size;
-    r.patches = static_cast<long long>(sys->patches().size());
+    if (d.system.mesh == MeshKind::kHierarchical) r.link_tolerance = d.system.hierarchy.link_tolerance;
+    r.patches = static_cast<long long>(sys->unknown_patches().size());  // a hierarchy's leaves
     r.unknowns = static_cast<long long>(t.size());
     r.system_seconds = system_seconds;
     r.gather_seconds = gather.seconds;
@@ -205,9 +227,7 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
 
   const long long points = static_cast<long long>(
       2 * f.sweeps.size() + traced.size() + f.orders.size() * f.drops.size() * f.precisions.size());
-  char stage[64];
-  std::snprintf(stage, sizeof stage, "sweep, patch size %g", patch_size);
-  Progress progress(stage, points);
+  Progress progress("sweep, " + label, points);
 
   // The iterative solver after n sweeps; the time includes the gather that makes the image.
   for (SolveMethod m : {SolveMethod::kJacobi, SolveMethod::kGaussSeidel}) {
@@ -310,10 +330,10 @@ void sweep_patch_size(const SweepOptions& f, const Scene& scene, double patch_si
   }
   progress.finish();
   std::fprintf(stderr,
-               "polyrad sweep: patch size %g: %zu patches, %lld unknowns, built in %.2f s, "
+               "polyrad sweep: %s: %zu patches, %lld unknowns, built in %.2f s, "
                "converged in %d sweeps\n",
-               patch_size, sys->patches().size(), static_cast<long long>(t.size()), system_seconds,
-               converged.iterations);
+               label.c_str(), sys->unknown_patches().size(), static_cast<long long>(t.size()),
+               system_seconds, converged.iterations);
 }
 
 }  // namespace
@@ -355,7 +375,16 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
   }
 
   std::vector<SweepRow> rows;
-  for (double ps : f.patch_sizes) sweep_patch_size(f, scene, ps, reference.image, traced, rows);
+  std::vector<Discretisation> meshes;
+  for (double ps : f.patch_sizes) meshes.push_back({ps, {}});
+  for (double tau : f.link_tolerances) {
+    Discretisation d{f.patch_sizes.front(), {}};
+    d.system.mesh = MeshKind::kHierarchical;
+    d.system.hierarchy.link_tolerance = tau;
+    meshes.push_back(d);
+  }
+  for (const Discretisation& d : meshes)
+    sweep_discretisation(f, scene, d, reference.image, traced, rows);
 
   std::ostringstream m;
   m << "machine: " << machine_description() << '\n'

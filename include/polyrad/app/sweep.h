@@ -1,7 +1,8 @@
 // Speed against accuracy: the experiment behind `polyrad sweep` and its charts.
 //
-// Varies the patch size, the series order K, its drop tolerance and value precision, the number
-// of Jacobi / Gauss-Seidel sweeps and the path tracer's samples per pixel, and for every point
+// Varies the patch size (and, on a hierarchical mesh, the link tolerance), the series order K,
+// its drop tolerance and value precision, the number of Jacobi / Gauss-Seidel sweeps and the
+// path tracer's samples per pixel, and for every point
 // measures what the image costs and how far it is from two references:
 //   - the converged solution of the same discretisation (Gauss-Seidel to a relative residual of
 //     1e-9, through the same camera gather): the error the knob itself adds;
@@ -30,6 +31,9 @@ namespace polyrad {
 struct SweepOptions {
   std::string out;  // the folder (made when missing; a file there is an InputError)
   std::vector<double> patch_sizes{100, 50, 25};
+  // Hierarchical meshes, one per link tolerance, whose roots are the first patch size's patches
+  // (empty: uniform meshes only).
+  std::vector<double> link_tolerances;
   std::vector<int> orders{0, 1, 2, 4, 8, 16, 32};
   std::vector<double> drops{0.0, 1e-4, 1e-3, 1e-2};
   std::vector<std::string> precisions{"float", "half"};
