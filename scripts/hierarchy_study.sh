@@ -49,7 +49,7 @@ done
 # The patch gather reads smooth B by default; the flat reading beside it.
 [ "$gather" = patch ] && run "hierarchical-0.05-flat" --mesh hierarchical --link-tolerance 0.05 --diffuse flat
 uptime > "$out/load.txt"
-python3 - "$out" "$name" "$gather" <<'EOF'
+/usr/bin/python3 - "$out" "$name" "$gather" <<'EOF'
 import json, sys
 out, name = sys.argv[1], sys.argv[2]
 rows = []

@@ -44,7 +44,7 @@ Image gather_image(const RadiositySystem& sys, const Field& u, const GatherOptio
 // ---- the penumbra of a square occluder under a square lamp ------------------------------------
 
 // Form factor from a differential area to a parallel rectangle with the normal through one
-// corner (METHOD.md section 8), odd in a and b, so that any rectangle of the parallel plane is
+// corner (papers/glossy-radiosity.md, section 10), odd in a and b, so that any rectangle of the parallel plane is
 // a sum of four of them.
 double corner_ff(double a, double b, double c) {
   const double A = a / c, B = b / c;

@@ -45,7 +45,7 @@ std::string grey(double a) {
   return s.str();
 }
 
-// The white furnace of METHOD.md section 8 on the hierarchy: as the tolerance falls, every leaf
+// The white furnace of papers/glossy-radiosity.md, section 10, on the hierarchy: as the tolerance falls, every leaf
 // approaches E / (1 - a), and at tau = 0.003 every leaf, refined down to an eighth of its root,
 // is within 0.5 percent; the camera reads the same, flat and smooth. (A closed box of two
 // roots a side is all near field: the uniform mesh is exact here, the hierarchy converges.)
@@ -76,7 +76,7 @@ TEST(Hierarchy, FurnaceIsEmissionOverOneMinusAlbedoOnEveryLeaf) {
   }
 }
 
-// Two directly opposed unit squares at distance 1 (METHOD.md section 8): F = 0.199825. The lamp
+// Two directly opposed unit squares at distance 1 (papers/glossy-radiosity.md, section 10): F = 0.199825. The lamp
 // refines the pair; the etendues of the links between the two trees still sum to A F, and one
 // application of T delivers exactly that flux to the receiver's leaves.
 TEST(Hierarchy, ParallelSquaresLinksSumToTheAnalyticFormFactor) {

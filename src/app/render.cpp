@@ -41,7 +41,7 @@ std::shared_ptr<const World> load_world(const std::string& path, const RenderOpt
   system.camera_bytes = camera_memory(o, apply_overrides(scene, o.overrides));
   MemoryEstimate need = estimate_memory(apply_overrides(scene, o.overrides), system);
   if (o.method == RenderMethod::kPathTrace) need.system = 0.0;
-  require_memory(need, memory_budget(system.max_memory_bytes), scene.file);
+  require_memory_before_meshing(need, memory_budget(system.max_memory_bytes), scene.file);
   auto world = World::build(std::move(scene), o.overrides);
   report.scene = path;
   report.overrides = o.overrides;

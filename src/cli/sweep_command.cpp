@@ -82,7 +82,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
     if (f->quick) {
       SweepOptions& q = f->options;
       // The finest patches cost the most (form factors and transfer grow with the square of the
-      // patch count, the precompute with nnz(T)): 35 keeps the demo near a minute.
+      // patch count, the precompute with nnz(T)): 35 keeps the sweep near two minutes with the hierarchical mesh.
       if (!patch_sizes->count()) q.patch_sizes = {100, 50, 35};
       if (!drops->count()) q.drops = {0.0, 1e-3};
       // One hierarchical mesh on the coarsest patches: the link tolerance's point beside them.

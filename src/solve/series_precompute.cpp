@@ -418,12 +418,10 @@ std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& s
   return columns;
 }
 
-double rows_memory(const SeriesOptions& o, std::int64_t rows, std::int64_t unknowns,
-                   std::int64_t columns) {
-  const auto r = static_cast<double>(rows), u = static_cast<double>(unknowns),
-             c = static_cast<double>(columns);
+double rows_memory(const SeriesOptions& o, double r, double u, double c) {
+  // Counts in double: an absurd patch size must be refused, not overflow an integer first.
   const double value = o.precision == ValuePrecision::kHalf ? 6.0 : 12.0;
-  const double batch = static_cast<double>(std::min<std::int64_t>(columns, std::max(1, o.column_batch)));
+  const double batch = std::min(c, static_cast<double>(std::max(1, o.column_batch)));
   if (o.output == SeriesOutput::kView) {
     // Every batch's P_K S and pixel rows, then the rows kept (16 bytes an entry) beside them:
     // 24 + 16 bytes; later the kept rows, Q and its dense copy: 16 + 2 x 12 at most.
@@ -442,11 +440,10 @@ double rows_memory(const SeriesOptions& o, const Scene& scene) {
     one.objects = {obj};
     columns += o.basis == SeriesBasis::kObject ? 1.0 : count_patches(one);
   }
-  const auto unknowns = static_cast<std::int64_t>(patches);
-  const auto cols = static_cast<std::int64_t>(columns);
-  if (o.output == SeriesOutput::kSolution) return rows_memory(o, unknowns, unknowns, cols);
+  if (o.output == SeriesOutput::kSolution) return rows_memory(o, patches, patches, columns);
   const std::int64_t pixels = static_cast<std::int64_t>(scene.camera.width) * scene.camera.height;
-  return rows_memory(o, pixels, unknowns, cols) + gather_memory(o.gather, pixels, true);
+  return rows_memory(o, static_cast<double>(pixels), patches, columns) +
+         gather_memory(o.gather, pixels, true);
 }
 
 SeriesOperator precompute_series(const TransportOperator& t, const World& world,

@@ -18,6 +18,12 @@ constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
 constexpr double kRootPairBytes = 600.0;
 constexpr double kVisibleShareOfFacing = 0.75;
+// Before meshing, work is refused only if it would not fit even were this share of the facing
+// pairs all that see each other: a cluttered scene whose pairs are mostly blocked is left to the
+// world's estimate, which samples visibility with rays before any form factor is computed.
+constexpr double kVisibleShareFloor = 0.1;
+// A tighter link tolerance refines further, but never below the smallest element size.
+constexpr double kMaxRefinementGrowth = 16.0;
 constexpr int kPairSamples = 4096;
 
 bool facing(const Vec3& ca, const Vec3& na, const Vec3& cb, const Vec3& nb) {
@@ -26,9 +32,10 @@ bool facing(const Vec3& ca, const Vec3& na, const Vec3& cb, const Vec3& nb) {
 }
 
 // The targets one (j -> i) pair of a reflector reaches: a mirror's samples land on few patches,
-// a lobe's spread over about all of them (and balancing adds the reverse entries).
-double targets_per_pair(const Material& m, int samples) {
-  return m.is_delta() ? 0.4 * samples : 1.1 * samples;
+// a lobe's spread over about all of them (and balancing adds the reverse entries); never more
+// than the patches the reflector sees.
+double targets_per_pair(const Material& m, int samples, double partners) {
+  return std::min(m.is_delta() ? 0.4 * samples : 1.1 * samples, 2.0 * partners);
 }
 
 // The system's bytes from the counts.
@@ -38,7 +45,8 @@ double system_bytes(double patches, double pairs, double reflector_pairs_targets
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
     const double transfer = o.hierarchy.specular_links ? reflector_pairs_targets * kEntryBytes : 0.0;
-    return pairs * kRootPairBytes * std::pow(std::max(1.0, 0.05 / tau), 1.2) + transfer;
+    const double growth = std::min(kMaxRefinementGrowth, std::pow(std::max(1.0, 0.05 / tau), 1.2));
+    return pairs * kRootPairBytes * growth + transfer;
   }
   (void)patches;
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
@@ -85,7 +93,8 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
     one.objects = {o};
     one.materials = scene.materials;
     const double patches = count_patches(one);
-    if (mat.has_lobe()) entries += patches * partners * targets_per_pair(mat, options.specular.samples);
+    if (mat.has_lobe())
+      entries += patches * partners * targets_per_pair(mat, options.specular.samples, partners);
   }
   m.base = kBaseBytes;
   m.world = m.patches * kPatchBytes;
@@ -118,13 +127,21 @@ MemoryEstimate estimate_memory(const World& world, const SystemOptions& options)
   double entries = 0.0;
   for (const Patch& p : patches.patches) {
     const Material& mat = world.materials()[p.material];
-    if (mat.has_lobe()) entries += partners * targets_per_pair(mat, options.specular.samples);
+    if (mat.has_lobe()) entries += partners * targets_per_pair(mat, options.specular.samples, partners);
   }
   m.base = kBaseBytes;
   m.world = m.patches * kPatchBytes;
   m.system = system_bytes(m.patches, m.visible_pairs, entries, options);
   m.camera = options.camera_bytes;
   return m;
+}
+
+void require_memory_before_meshing(const MemoryEstimate& need, double budget,
+                                   const std::string& file) {
+  MemoryEstimate floor = need;
+  floor.system *= kVisibleShareFloor / kVisibleShareOfFacing;  // linear in the visible pairs
+  if (!(budget > 0.0) || floor.total() <= budget) return;
+  require_memory(need, budget, file);  // need >= floor > budget: throws with the estimate
 }
 
 double memory_budget(double max_memory_bytes) {

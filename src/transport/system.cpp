@@ -139,8 +139,8 @@ std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world
 
 std::unique_ptr<RadiositySystem> build_system(Scene scene, const SceneOverrides& overrides,
                                               const SystemOptions& options) {
-  require_memory(estimate_memory(apply_overrides(scene, overrides), options),
-                 memory_budget(options.max_memory_bytes), scene.file);
+  require_memory_before_meshing(estimate_memory(apply_overrides(scene, overrides), options),
+                                memory_budget(options.max_memory_bytes), scene.file);
   // The world applies the overrides itself: it takes the scene as written.
   return build_system(World::build(std::move(scene), overrides), options);
 }

@@ -8,19 +8,22 @@
 //   system   the form factors and T's diffuse rows                48 bytes a visible pair
 //            the specular transfer and T's link rows            50 bytes a transfer entry
 //            (entries: each reflector patch's visible partners times the targets a pair
-//            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe)
+//            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe, at most
+//            twice the partners)
 //            a hierarchy: 600 bytes a visible root pair at link tolerance 0.05, growing as
-//            (0.05 / tau)^1.2 as the tolerance tightens, and with lobes the transfer on
-//            its roots as above
+//            (0.05 / tau)^1.2 (at most 16 times) as the tolerance tightens, and with lobes
+//            the transfer on its roots as above
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images
 // Visible pairs: before meshing, the pairs of faces that face each other, weighted by their
-// patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked); from a
-// built world, 4096 random patch pairs tested by a plane test and a ray between centroids.
+// patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked; the check
+// before meshing refuses only past a tenth); from a built world, 4096 random patch pairs tested
+// by a plane test and a ray between centroids.
 //
-//   MemoryEstimate m = estimate_memory(*world, options);
-//   m.camera = gather_memory(options.gather, pixels, true);
-//   require_memory(m, memory_budget(options.max_memory_bytes), world->scene().file);
+//   SystemOptions o;
+//   o.camera_bytes = gather_memory(gather_options, pixels, true);
+//   require_memory(estimate_memory(*world, o), memory_budget(o.max_memory_bytes),
+//                  world->scene().file);
 //
 // Cost: O(faces^2) before meshing (sampled beyond 4000 faces); 4096 rays from a world.
 #pragma once
@@ -50,5 +53,11 @@ double memory_budget(double max_memory_bytes);
 // Throws InputError naming the file, the estimate by part and the budget when the estimate
 // exceeds it.
 void require_memory(const MemoryEstimate& need, double budget, const std::string& file);
+// The check before meshing, on estimate_memory(Scene): refuses only what would not fit even if
+// a tenth of the facing pairs saw each other (not three quarters), so that a scene whose pairs
+// are mostly blocked is judged by the world's estimate, after meshing and before the form
+// factors; a tiny patch size or a huge image is still refused at once.
+void require_memory_before_meshing(const MemoryEstimate& need, double budget,
+                                   const std::string& file);
 
 }  // namespace polyrad
