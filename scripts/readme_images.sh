@@ -21,6 +21,7 @@ copy() {  # copy SRC DST-NAME
 
 copy out/compare.png mirror-cube-compare.png
 copy out/gather/gather.png gather-samples.png
+copy out/hierarchy-mirror/hierarchy.png hierarchy-mirror.png  # ./scripts/hierarchy_study.sh on the mirror cube
 for c in error_vs_time error_vs_order cost_vs_patches convergence; do copy "out/charts/$c.png" "$c.png"; done
 
 # Strips: images side by side (--row) or one above the other (--column), 6 px white gaps.

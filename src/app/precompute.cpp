@@ -1,6 +1,11 @@
 // The precompute workflow (app/precompute.h).
 #include "polyrad/app/precompute.h"
 
+#include <algorithm>
+
+#include "polyrad/transport/memory_estimate.h"
+#include "polyrad/util/machine.h"
+
 namespace polyrad {
 
 void check_series_options(const SeriesOptions& series, const SystemOptions& system) {
@@ -20,6 +25,29 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
         "rebuild from the scene; use --output view (or --mesh uniform)");
 }
 
+void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys,
+                               double max_memory_bytes) {
+  const World& w = *sys.world;
+  const TransportOperator& t = sys.transport;
+  const auto columns = static_cast<double>(series_columns(w.patches(), w.scene(), series.basis).size());
+  const auto unknowns = static_cast<double>(t.size());
+  const std::int64_t pixels = static_cast<std::int64_t>(w.camera().width) * w.camera().height;
+  const bool view = series.output == SeriesOutput::kView;
+  MemoryEstimate m;
+  m.patches = static_cast<double>(sys.unknown_patches().size());
+  m.visible_pairs = static_cast<double>(sys.form_factors.stats.pairs_visible);
+  m.base = static_cast<double>(peak_memory_bytes());  // what the run holds so far, at most
+  m.camera = rows_memory(series, view ? static_cast<double>(pixels) : unknowns, unknowns, columns) +
+             (view ? gather_memory(series.gather, pixels, true) : 0.0);
+  if (sys.hierarchy) {
+    // Each application of a hierarchical T holds two node-sized blocks (gathered and pulled).
+    const double batch = std::min(columns, static_cast<double>(std::max(1, series.column_batch)));
+    m.system = static_cast<double>(sys.hierarchy->op()->nodes()) * 2.0 * 3.0 * 8.0 * batch;
+  }
+  sys.estimated_memory_bytes = std::max(sys.estimated_memory_bytes, m.total());
+  require_memory(m, memory_budget(max_memory_bytes), w.scene().file);
+}
+
 PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptions& o) {
   check_series_options(o.series, o.system);
   Stopwatch watch;
@@ -32,6 +60,7 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   SystemOptions system = o.system;  // with the view rows' share of the memory estimate
   system.camera_bytes = rows_memory(o.series, apply_overrides(scene, o.overrides));
   auto sys = build_system(std::move(scene), o.overrides, system);
+  require_precompute_memory(o.series, *sys, o.system.max_memory_bytes);
   SeriesOperator q = precompute_series(sys->transport, *sys->world, o.series);
   rep.system = sys->summary();
   rep.series = q;

@@ -82,6 +82,7 @@ void render_series(RenderResult& r, const RenderOptions& o, const SystemOptions&
   SeriesOptions so = o.series;
   so.output = SeriesOutput::kView;
   so.gather = o.gather;
+  require_precompute_memory(so, *sys, system.max_memory_bytes);
   const SeriesOperator q = precompute_series(sys->transport, *r.world, so);
   const std::vector<float> e = q.column_emission();
   std::vector<float> out(3 * static_cast<std::size_t>(q.rows()));

@@ -422,13 +422,14 @@ double rows_memory(const SeriesOptions& o, double r, double u, double c) {
   // Counts in double: an absurd patch size must be refused, not overflow an integer first.
   const double value = o.precision == ValuePrecision::kHalf ? 6.0 : 12.0;
   const double batch = std::min(c, static_cast<double>(std::max(1, o.column_batch)));
+  const double batch_blocks = u * 3.0 * 8.0 * 3.0 * batch;  // the term, the next, the sum
   if (o.output == SeriesOutput::kView) {
     // Every batch's P_K S and pixel rows, then the rows kept (16 bytes an entry) beside them:
     // 24 + 16 bytes; later the kept rows, Q and its dense copy: 16 + 2 x 12 at most.
-    return u * 3.0 * 8.0 * c + r * c * 40.0;
+    return batch_blocks + u * 3.0 * 8.0 * c + r * c * 40.0;
   }
-  // Three blocks of unknowns a batch (the term, the next, the sum), the rows kept, Q twice.
-  return u * 3.0 * 8.0 * 3.0 * batch + r * c * (16.0 + 2.0 * value);
+  // The batch's blocks, the rows kept, Q twice.
+  return batch_blocks + r * c * (16.0 + 2.0 * value);
 }
 
 double rows_memory(const SeriesOptions& o, const Scene& scene) {
