@@ -104,7 +104,7 @@ def discretisation_title(sel):
     r = sel[0]
     patches = int(r["patches"])
     if r.get("mesh", "uniform") == "hierarchical":
-        return (f"hierarchical, link tolerance {r['link_tolerance']:g} on patch size "
+        return (f"hierarchical, tau {r['link_tolerance']:g}, roots of size "
                 f"{r['patch_size_scene_units']:g} ({patches} leaves)")
     return f"patch size {r['patch_size_scene_units']:g} ({patches} patches)"
 
