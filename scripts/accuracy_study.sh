@@ -10,7 +10,8 @@
 #     SCENES  default: cornell-box cornell-mirror-cube cornell-glossy
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh); $TOLERANCES the
 # link tolerances of the hierarchical runs (final gather, each patch size as the roots; default
-# "0.1 0.05 0.02"; empty: none), named SCENE-pSIZE-hTOL.
+# "0.1 0.05 0.02"; empty: none), named SCENE-pSIZE-hTOL; $READS replaces the whole list of runs
+# (e.g. READS="final h0.05").
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:-out/accuracy}"
@@ -38,6 +39,7 @@ for scene in "${scenes[@]}"; do
   for size in 100 50 25; do
     reads=(patch-smooth patch-flat final)
     for tol in ${TOLERANCES-0.1 0.05 0.02}; do reads+=("h$tol"); done
+    if [ -n "${READS:-}" ]; then read -r -a reads <<< "$READS"; fi
     for read in "${reads[@]}"; do
       case "$read" in
         patch-*) flags=(--gather patch --diffuse "${read#patch-}") ;;
