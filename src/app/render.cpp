@@ -38,8 +38,9 @@ std::shared_ptr<const World> load_world(const std::string& path, const RenderOpt
   Stopwatch watch;
   Scene scene = load_scene(path, o.scene);
   report.seconds.push_back({"load", watch.seconds()});
-  system.camera_bytes = camera_memory(o, apply_overrides(scene, o.overrides));
-  MemoryEstimate need = estimate_memory(apply_overrides(scene, o.overrides), system);
+  const Scene as_run = apply_overrides(scene, o.overrides);
+  system.camera_bytes = camera_memory(o, as_run);
+  MemoryEstimate need = estimate_memory(as_run, system);
   if (o.method == RenderMethod::kPathTrace) need.system = 0.0;
   require_memory_before_meshing(need, memory_budget(system.max_memory_bytes), scene.file);
   auto world = World::build(std::move(scene), o.overrides);

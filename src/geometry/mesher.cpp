@@ -135,9 +135,11 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
     return std::max(1.0, std::ceil(length / max_edge - 1e-9));
   };
   std::vector<FacePatches> out;
-  for (const auto& o : scene.objects)
+  for (int object = 0; object < static_cast<int>(scene.objects.size()); ++object) {
+    const SceneObject& o = scene.objects[object];
     for (const auto& face : merged_faces(o.faces)) {
       FacePatches f;
+      f.object = object;
       Vec3 area2 = Vec3::Zero();
       for (size_t k = 1; k + 1 < face.size(); ++k) area2 += (face[k] - face[0]).cross(face[k + 1] - face[0]);
       for (const Vec3& v : face) f.centroid += v / static_cast<double>(face.size());
@@ -156,6 +158,7 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
       }
       out.push_back(f);
     }
+  }
   return out;
 }
 

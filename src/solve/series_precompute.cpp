@@ -433,14 +433,13 @@ double rows_memory(const SeriesOptions& o, double r, double u, double c) {
 }
 
 double rows_memory(const SeriesOptions& o, const Scene& scene) {
-  const double patches = count_patches(scene);
-  double columns = 0.0;
-  for (const auto& obj : scene.objects) {
-    if (!obj.is_emitter) continue;
-    Scene one;
-    one.objects = {obj};
-    columns += o.basis == SeriesBasis::kObject ? 1.0 : count_patches(one);
+  double patches = 0.0, columns = 0.0;
+  for (const FacePatches& f : face_patches(scene)) {
+    patches += f.patches;
+    if (o.basis == SeriesBasis::kPatch && scene.objects[f.object].is_emitter) columns += f.patches;
   }
+  if (o.basis == SeriesBasis::kObject)
+    for (const auto& obj : scene.objects) columns += obj.is_emitter ? 1.0 : 0.0;
   if (o.output == SeriesOutput::kSolution) return rows_memory(o, patches, patches, columns);
   const std::int64_t pixels = static_cast<std::int64_t>(scene.camera.width) * scene.camera.height;
   return rows_memory(o, static_cast<double>(pixels), patches, columns) +

@@ -39,8 +39,7 @@ double targets_per_pair(const Material& m, int samples, double partners) {
 }
 
 // The system's bytes from the counts.
-double system_bytes(double patches, double pairs, double reflector_pairs_targets,
-                    const SystemOptions& o) {
+double system_bytes(double pairs, double reflector_pairs_targets, const SystemOptions& o) {
   if (o.mesh == MeshKind::kHierarchical) {
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
@@ -48,8 +47,24 @@ double system_bytes(double patches, double pairs, double reflector_pairs_targets
     const double growth = std::min(kMaxRefinementGrowth, std::pow(std::max(1.0, 0.05 / tau), 1.2));
     return pairs * kRootPairBytes * growth + transfer;
   }
-  (void)patches;
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
+}
+
+// The parts from the counts already in m (patches, visible pairs); reflectors: the patches of
+// each lobed material (a face's, or one patch at a time).
+MemoryEstimate with_parts(MemoryEstimate m,
+                          const std::vector<std::pair<double, const Material*>>& reflectors,
+                          const SystemOptions& options) {
+  // Transfer entries: each reflector patch's mean visible partners times the targets a pair reaches.
+  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
+  double entries = 0.0;
+  for (const auto& [patches, mat] : reflectors)
+    entries += patches * partners * targets_per_pair(*mat, options.specular.samples, partners);
+  m.base = kBaseBytes;
+  m.world = m.patches * kPatchBytes;
+  m.system = system_bytes(m.visible_pairs, entries, options);
+  m.camera = options.camera_bytes;
+  return m;
 }
 
 }  // namespace
@@ -84,23 +99,12 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
     facing_pairs = total > 0.0 ? hit / total * 0.5 * (all * all - squares) : 0.0;
   }
   m.visible_pairs = kVisibleShareOfFacing * facing_pairs;
-  // Reflector pairs: each lobe face's patches times the mean visible partners of a patch.
-  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
-  double entries = 0.0;
-  for (const auto& o : scene.objects) {
-    const Material& mat = scene.materials[o.material];
-    Scene one;
-    one.objects = {o};
-    one.materials = scene.materials;
-    const double patches = count_patches(one);
-    if (mat.has_lobe())
-      entries += patches * partners * targets_per_pair(mat, options.specular.samples, partners);
+  std::vector<std::pair<double, const Material*>> reflectors;
+  for (const auto& f : faces) {
+    const Material& mat = scene.materials[scene.objects[f.object].material];
+    if (mat.has_lobe()) reflectors.emplace_back(f.patches, &mat);
   }
-  m.base = kBaseBytes;
-  m.world = m.patches * kPatchBytes;
-  m.system = system_bytes(m.patches, m.visible_pairs, entries, options);
-  m.camera = options.camera_bytes;
-  return m;
+  return with_parts(m, reflectors, options);
 }
 
 MemoryEstimate estimate_memory(const World& world, const SystemOptions& options) {
@@ -123,17 +127,12 @@ MemoryEstimate estimate_memory(const World& world, const SystemOptions& options)
   }
   // A pair partly hidden at its centroids still links (F > 0): a tenth more than the rays see.
   m.visible_pairs = tried > 0 ? 1.1 * seen / tried * 0.5 * m.patches * (m.patches - 1) : 0.0;
-  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
-  double entries = 0.0;
+  std::vector<std::pair<double, const Material*>> reflectors;
   for (const Patch& p : patches.patches) {
     const Material& mat = world.materials()[p.material];
-    if (mat.has_lobe()) entries += partners * targets_per_pair(mat, options.specular.samples, partners);
+    if (mat.has_lobe()) reflectors.emplace_back(1.0, &mat);
   }
-  m.base = kBaseBytes;
-  m.world = m.patches * kPatchBytes;
-  m.system = system_bytes(m.patches, m.visible_pairs, entries, options);
-  m.camera = options.camera_bytes;
-  return m;
+  return with_parts(m, reflectors, options);
 }
 
 void require_memory_before_meshing(const MemoryEstimate& need, double budget,

@@ -75,6 +75,7 @@ double count_patches(const Scene& scene);
 // Each face as the mesher will cut it: where it is, which way it faces and how many patches it
 // makes (memory estimates judge which patches could see each other from these).
 struct FacePatches {
+  int object = 0;  // index into Scene::objects
   Vec3 centroid = Vec3::Zero();
   Vec3 normal = Vec3::Zero();
   double patches = 0.0;
