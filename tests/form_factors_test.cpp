@@ -166,7 +166,13 @@ namespace {
 // A closed 1 x 1 x 1 box with a closed 0.3-cube standing on its floor, every face of
 // reflectance a and emission 1: a furnace, so B = 1 / (1 - a) on every surface light can reach.
 // The floor's 0.25 patches do not follow the cube's footprint, so some are partly buried.
-std::string box_with_block(double a) {
+// Adds objects (JSON, each after a comma) to a scene's object list.
+std::string with_objects(const std::string& scene, const std::string& objects) {
+  auto end = scene.rfind(']');
+  return scene.substr(0, end - 1) + objects + scene.substr(end + 1);
+}
+
+std::string box_with_block(double a, double cube_patch_size = 0.0) {
   std::string m = R"({"type": "diffuse", "reflectance": [)" + std::to_string(a) + ", " +
                   std::to_string(a) + ", " + std::to_string(a) + "]}";
   std::string box = test::closed_box_json(Vec3(1, 1, 1), 0.25, m, 1.0);
@@ -185,8 +191,13 @@ std::string box_with_block(double a) {
     {"name": "cube_back", "material": "m0", "emission": [1, 1, 1],
      "polygon": [[0.3, 0, 0.6], [0.6, 0, 0.6], [0.6, 0.3, 0.6], [0.3, 0.3, 0.6]]}
   ])";
-  auto end = box.rfind(']');
-  return box.substr(0, end - 1) + cube + box.substr(end + 1);
+  if (cube_patch_size > 0.0) {
+    const std::string tag = R"("material": "m0",)";
+    const std::string sized = tag + R"( "patch_size": )" + std::to_string(cube_patch_size) + ",";
+    for (auto at = cube.find(tag); at != std::string::npos; at = cube.find(tag, at + sized.size()))
+      cube.replace(at, tag.size(), sized);
+  }
+  return with_objects(box, cube);
 }
 
 TEST(FormFactors, BuriedPartsOfPatchesAreLeftOut) {
@@ -214,6 +225,68 @@ TEST(FormFactors, BuriedPartsOfPatchesAreLeftOut) {
       EXPECT_NEAR(sys->form_factors.row_sum(i), 1.0, 0.04) << "partly buried patch " << i;
     }
   }
+}
+
+// A partly buried floor patch integrated as the outer patch of a pair whose partner's plane cuts
+// it: the block's faces are single patches larger than the floor's, so the floor patches are
+// the smaller, outer ones. The block's side cuts off exactly the buried part, so that pair's
+// region is wholly exposed; scaling it by the whole patch's exposed fraction, as polyrad once
+// did, took rows down to 0.7.
+TEST(FormFactors, PartlyBuriedRowsSumToOneWhereABlocksSideCutsThem) {
+  auto sys = build_system(World::build(test::scene_from_json(box_with_block(0.5, 1.0))));
+  const auto& ps = sys->patches();
+  ASSERT_GT(ps[ps.size() - 1].area, ps[0].area);  // the block's faces are the larger patches
+  int partly = 0;
+  for (PatchId i = 0; i < static_cast<PatchId>(ps.size()); ++i) {
+    const double exposed = sys->form_factors.area[i];
+    if (exposed <= 0.0 || exposed >= ps[i].area) continue;
+    ++partly;
+    EXPECT_NEAR(sys->form_factors.row_sum(i), 1.0, 0.04) << "partly buried patch " << i;
+  }
+  EXPECT_EQ(partly, 4);  // the floor patches the footprint lies across
+}
+
+// A block in a corner, open toward the two walls and the floor it stands against: the space it
+// closes holds only fronts (the walls', the floor's) and its own inside, and all of it is
+// buried. Near the corner a point sees the walls with most probes, so a majority of back faces
+// alone called it open.
+TEST(FormFactors, ABlockInACornerBuriesTheWallsAndFloorBehindIt) {
+  const std::string m = R"({"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]})";
+  // [0, 0.4] x [0, 0.5] x [0, 0.4]: its top, and its sides facing +x and +z.
+  const std::string block = R"(,
+    {"name": "block_top", "material": "m0", "patch_size": 1,
+     "polygon": [[0, 0.5, 0], [0, 0.5, 0.4], [0.4, 0.5, 0.4], [0.4, 0.5, 0]]},
+    {"name": "block_x", "material": "m0", "patch_size": 1,
+     "polygon": [[0.4, 0, 0], [0.4, 0.5, 0], [0.4, 0.5, 0.4], [0.4, 0, 0.4]]},
+    {"name": "block_z", "material": "m0", "patch_size": 1,
+     "polygon": [[0, 0, 0.4], [0.4, 0, 0.4], [0.4, 0.5, 0.4], [0, 0.5, 0.4]]}
+  ])";
+  auto sys = build_system(
+      World::build(test::scene_from_json(with_objects(test::closed_box_json(Vec3(1, 1, 1), 0.25, m, 1.0), block))));
+  const auto& ps = sys->patches();
+  // The part of an axis-aligned patch inside the block, from its bounding box.
+  auto hidden = [](const Patch& p) {
+    Vec3 lo = p.corner[0].cwiseMin(p.corner[2]), hi = p.corner[0].cwiseMax(p.corner[2]);
+    const Vec3 block_hi(0.4, 0.5, 0.4);
+    double area = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      if (hi[k] - lo[k] < 1e-12) continue;  // the patch's normal axis
+      area *= std::max(0.0, std::min(hi[k], block_hi[k]) - std::max(lo[k], 0.0));
+    }
+    return area;
+  };
+  int checked = 0;
+  for (const char* name : {"floor", "left", "front"}) {
+    const ObjectId wall = sys->scene().find_object(name);
+    for (PatchId i = 0; i < static_cast<PatchId>(ps.size()); ++i) {
+      if (ps[i].object != wall) continue;
+      // 32 x 32 test points, at most two buried edges across the patch: 2 / 32 of its area.
+      EXPECT_NEAR(sys->form_factors.area[i], ps[i].area - hidden(ps[i]), ps[i].area * 2.0 / 32.0)
+          << name << " patch " << i;
+      checked += hidden(ps[i]) > 0.0;
+    }
+  }
+  EXPECT_EQ(checked, 3 * 4);  // 2 x 2 patches of each behind the block
 }
 
 TEST(FormFactors, FurnaceWithABlockIsUniformWhereLightReaches) {

@@ -66,6 +66,8 @@ class RayCaster {
   Hit intersect_from(const Vec3& x, const Patch& p, const Vec3& d) const;
   // The distance a point of patch p is lifted: epsilon() + its bend.
   double lift(const Patch& p) const { return epsilon_ + p.bend; }
+  // The patches the rays meet (Hit::patch indexes these).
+  const PatchSet& patches() const { return patches_; }
 
  private:
   struct Impl;

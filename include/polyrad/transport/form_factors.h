@@ -82,13 +82,13 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
                              const FormFactorOptions& options, std::uint64_t key,
                              long long* rays_cast = nullptr, double a_exposed = 1.0);
 
-// True if every probe ray from x (on patch p) is blocked as exposed_areas describes.
+// True if x (on patch p) lies inside closed geometry, as exposed_areas describes.
 bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster);
 
-// The exposed area of every patch: a point is buried when at least four of five probe rays
-// (along the normal and tilted 60 degrees around it) meet the back of a surface, i.e. it lies
-// inside a closed object (also one nested in or cutting another) or sandwiched under a one-sided
-// panel. Deterministic (fixed points).
+// The exposed area of every patch: a point is buried when most of 13 probe rays (along the
+// normal, and tilted 30 and 60 degrees around it) meet the back of a surface, i.e. it lies
+// inside a closed object (also one nested in or cutting another, or one closed on some sides by
+// walls and floor) or sandwiched under a one-sided panel. Deterministic (fixed points).
 std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
                                   int refined_points);
 
