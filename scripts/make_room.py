@@ -56,8 +56,9 @@ AXES = {"-x": (-1, 0, 0), "+x": (1, 0, 0), "-y": (0, -1, 0), "+y": (0, 1, 0),
 SOLIDS = []  # (x0, x1, y0, y1, z0, z1) of every box and prism made, for the overlap check
 
 
-def box(x0, x1, y0, y1, z0, z1, omit=()):
-    """The faces of an axis-aligned box, normals outwards; `omit` names faces left out."""
+def box(x0, x1, y0, y1, z0, z1, omit=(), trim=None):
+    """The faces of an axis-aligned box, normals outwards; `omit` names faces left out; `trim`
+    maps a face to (axis, lo, hi): that face keeps only its part with lo <= axis <= hi."""
     SOLIDS.append((x0, x1, y0, y1, z0, z1))
     faces = {
         "-x": [(x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)],
@@ -67,6 +68,10 @@ def box(x0, x1, y0, y1, z0, z1, omit=()):
         "-z": [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0)],
         "+z": [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
     }
+    for side, (axis, lo, hi) in (trim or {}).items():
+        k = "xyz".index(axis)
+        faces[side] = [tuple(min(max(c, lo), hi) if i == k else c for i, c in enumerate(p))
+                       for p in faces[side]]
     return [oriented(faces[k], AXES[k]) for k in ("-x", "+x", "-y", "+y", "-z", "+z")
             if k not in omit]
 
@@ -104,23 +109,34 @@ def rect(axis, at, a0, a1, b0, b1, facing):
     return oriented(p, AXES[facing])
 
 
-def frame_on_wall(wall, lo_a, hi_a, lo_y, hi_y, width, depth):
+def frame_on_wall(wall, lo_a, hi_a, lo_y, hi_y, width, depth, proud=0.0, on_sill=False):
     """Four boxes framing the rectangle [lo_a, hi_a] x [lo_y, hi_y] on a wall; `wall` is one of
-    "x0", "x1", "z0", "z1". The faces against the wall are left out."""
-    boxes = [(lo_a - width, hi_a + width, lo_y - width, lo_y),   # bottom rail
-             (lo_a - width, hi_a + width, hi_y, hi_y + width),   # top rail
-             (lo_a - width, lo_a, lo_y, hi_y),                   # left stile
-             (hi_a, hi_a + width, lo_y, hi_y)]                   # right stile
+    "x0", "x1", "z0", "z1". The faces against the wall are left out. With a panel `proud` of
+    the wall inside the frame, the faces toward the opening begin at the panel: the gap behind
+    it is sealed, so that no face reaches both into it and into the room (one patch lit on one
+    side and dark on the other would average the two). `on_sill`: the bottom rail rests on a
+    sill, and its underside is left out."""
+    boxes = [(lo_a - width, hi_a + width, lo_y - width, lo_y, "+y"),   # bottom rail
+             (lo_a - width, hi_a + width, hi_y, hi_y + width, "-y"),   # top rail
+             (lo_a - width, lo_a, lo_y, hi_y, "+a"),                   # left stile
+             (hi_a, hi_a + width, lo_y, hi_y, "-a")]                   # right stile
     faces = []
-    for a0, a1, y0, y1 in boxes:
+    for a0, a1, y0, y1, inner in boxes:
+        across = "z" if wall in ("x0", "x1") else "x"  # the wall's horizontal axis
+        side = inner.replace("a", across)
+        rest = ("-y",) if on_sill and inner == "+y" else ()
         if wall == "x0":
-            faces += box(0, depth, y0, y1, a0, a1, omit=("-x",))
+            faces += box(0, depth, y0, y1, a0, a1, omit=("-x",) + rest,
+                         trim={side: ("x", proud, depth)})
         elif wall == "x1":
-            faces += box(W - depth, W, y0, y1, a0, a1, omit=("+x",))
+            faces += box(W - depth, W, y0, y1, a0, a1, omit=("+x",) + rest,
+                         trim={side: ("x", W - depth, W - proud)})
         elif wall == "z0":
-            faces += box(a0, a1, y0, y1, 0, depth, omit=("-z",))
+            faces += box(a0, a1, y0, y1, 0, depth, omit=("-z",) + rest,
+                         trim={side: ("z", proud, depth)})
         else:
-            faces += box(a0, a1, y0, y1, D - depth, D, omit=("+z",))
+            faces += box(a0, a1, y0, y1, D - depth, D, omit=("+z",) + rest,
+                         trim={side: ("z", D - depth, D - proud)})
     return faces
 
 
@@ -156,8 +172,11 @@ def chair(cx, cz, facing):
 def bookcase(x0, x1, z1, depth, height, board=25, shelves=5):
     """Open shelves against the north wall (z = z1): sides, top, bottom, shelves."""
     z0 = z1 - depth
-    faces = box(x0, x0 + board, 0, height, z0, z1, omit=("-y", "+z"))        # left side
-    faces += box(x1 - board, x1, 0, height, z0, z1, omit=("-y", "+z"))       # right side
+    # The sides' inner faces begin above the plinth: below it they would face its inside.
+    faces = box(x0, x0 + board, 0, height, z0, z1, omit=("-y", "+z"),
+                trim={"+x": ("y", 80, height)})                             # left side
+    faces += box(x1 - board, x1, 0, height, z0, z1, omit=("-y", "+z"),
+                 trim={"-x": ("y", 80, height)})                            # right side
     faces += box(x0 + board, x1 - board, height - board, height, z0, z1, omit=("+z", "-x", "+x"))
     faces += box(x0 + board, x1 - board, 0, 80, z0, z1, omit=("-y", "+z", "-x", "+x"))  # plinth
     step = (height - board - 80) / shelves
@@ -188,12 +207,26 @@ def books(x0, x1, z1, shelf_ys, colour_index, depth=240):
 
 
 def sofa(x0, x1, z0, depth, seat_h=420, back_h=850, arm_w=200, arm_h=620, back_t=220):
-    """A sofa against the south wall (back at z0), facing +z."""
-    z1 = z0 + depth
-    faces = box(x0 + arm_w, x1 - arm_w, 0, seat_h, z0 + back_t, z1, omit=("-y", "-x", "+x"))
-    faces += box(x0 + arm_w, x1 - arm_w, 0, back_h, z0, z0 + back_t, omit=("-y", "-z", "-x", "+x"))
-    faces += box(x0, x0 + arm_w, 0, arm_h, z0, z1, omit=("-y", "-z"))
-    faces += box(x1 - arm_w, x1, 0, arm_h, z0, z1, omit=("-y", "-z"))
+    """A sofa against the south wall (back at z0), facing +z: the outer surface of two arms and
+    an L-shaped body between them, with no face inside it (a face that ran from the room into
+    the sofa's inside would carry light in)."""
+    z1, xa, xb, zb = z0 + depth, x0 + arm_w, x1 - arm_w, z0 + back_t
+    SOLIDS.extend([(x0, xa, 0, arm_h, z0, z1), (xb, x1, 0, arm_h, z0, z1),
+                   (xa, xb, 0, seat_h, zb, z1), (xa, xb, 0, back_h, z0, zb)])
+    faces = []
+    for ax0, ax1, inner in ((x0, xa, "+x"), (xb, x1, "-x")):  # arms
+        outer = "-x" if inner == "+x" else "+x"
+        faces.append(rect("x", ax0 if outer == "-x" else ax1, 0, arm_h, z0, z1, outer))
+        faces.append(rect("y", arm_h, ax0, ax1, z0, z1, "+y"))
+        faces.append(rect("z", z1, ax0, ax1, 0, arm_h, "+z"))
+        # The inner side shows only above the seat and in front of the back.
+        faces.append(rect("x", ax1 if inner == "+x" else ax0, seat_h, arm_h, zb, z1, inner))
+    faces.append(rect("y", seat_h, xa, xb, zb, z1, "+y"))       # seat top
+    faces.append(rect("z", z1, xa, xb, 0, seat_h, "+z"))        # seat front
+    faces.append(rect("y", back_h, xa, xb, z0, zb, "+y"))       # back top
+    faces.append(rect("z", zb, xa, xb, seat_h, back_h, "+z"))   # back, above the seat
+    faces.append(rect("x", xa, arm_h, back_h, z0, zb, "-x"))    # back's ends above the arms
+    faces.append(rect("x", xb, arm_h, back_h, z0, zb, "+x"))
     return faces
 
 
@@ -212,8 +245,13 @@ def cushions(x0, x1, z0, seat_h=420, back_t=220, arm_w=200):
 
 def cabinet(x0, depth, z0, z1, height):
     """A sideboard against the west wall (x = x0 = 0), doors facing +x."""
-    faces = box(x0, x0 + depth, 80, height, z0, z1, omit=("-x",))
+    faces = box(x0, x0 + depth, 80, height, z0, z1, omit=("-x", "-y"))
     faces += box(x0, x0 + depth - 40, 0, 80, z0 + 40, z1 - 40, omit=("-x", "-y", "+y"))  # plinth
+    # The underside only where it overhangs the plinth: over the plinth it would face into
+    # the plinth's inside.
+    faces.append(rect("y", 80, x0 + depth - 40, x0 + depth, z0, z1, "-y"))
+    faces.append(rect("y", 80, x0, x0 + depth - 40, z0, z0 + 40, "-y"))
+    faces.append(rect("y", 80, x0, x0 + depth - 40, z1 - 40, z1, "-y"))
     return faces
 
 
@@ -253,14 +291,16 @@ def build():
     wx0, wx1, wy0, wy1 = 2500.0, 3900.0, 950.0, 2250.0
     poly("window", "window_pane", rect("z", D - 5, wx0, wx1, wy0, wy1, "-z"),
          emission=[2.2, 2.9, 4.0])
-    mesh("window_frame", "frame_white", frame_on_wall("z1", wx0, wx1, wy0, wy1, 70, 60))
+    mesh("window_frame", "frame_white", frame_on_wall("z1", wx0, wx1, wy0, wy1, 70, 60,
+                                                           proud=5, on_sill=True))
     mesh("window_sill", "frame_white", box(wx0 - 150, wx1 + 150, wy0 - 110, wy0 - 70,
                                            D - 200, D, omit=("+z",)))
 
     # The mirror on the west wall, 10 mm proud, in a dark frame; the sideboard under it.
     mz0, mz1, my0, my1 = 1650.0, 2850.0, 1150.0, 2250.0
     poly("mirror", "mirror", rect("x", 10, my0, my1, mz0, mz1, "+x"))
-    mesh("mirror_frame", "walnut", frame_on_wall("x0", mz0, mz1, my0, my1, 60, 40))
+    mesh("mirror_frame", "walnut", frame_on_wall("x0", mz0, mz1, my0, my1, 60, 40,
+                                                     proud=10))
     mesh("sideboard", "walnut", cabinet(0.0, 450.0, 1400.0, 3100.0, 800.0))
     mesh("sideboard_handles", "brass", handles(450.0, (650.0,), (1800.0, 2250.0, 2700.0)))
     mesh("vase", "glazed_blue", frustum(250.0, 2700.0, 800.0, 1100.0, 90.0, 60.0, 8,
@@ -330,7 +370,8 @@ def build():
         else:
             canvas = rect("x", 5, y0, y1, a0, a1, "+x")
         poly(name, colour, canvas)
-        mesh(name + "_frame", "frame_black", frame_on_wall(wall, a0, a1, y0, y1, 40, 30))
+        mesh(name + "_frame", "frame_black", frame_on_wall(wall, a0, a1, y0, y1, 40, 30,
+                                                                  proud=5))
 
     picture("picture_sofa", "canvas_blue", "z0", 1900.0, 2900.0, 1250.0, 1900.0)
     picture("picture_north", "canvas_ochre", "z1", 4400.0, 5000.0, 1300.0, 2000.0)
@@ -340,9 +381,12 @@ def build():
     # The door in the south wall's east end, 10 mm proud, with its frame.
     poly("door", "oak", rect("z", 10, 4600.0, 5500.0, 0.0, 2050.0, "+z"))
     mesh("door_frame", "frame_white",
-         box(4540.0, 4600.0, 0.0, 2110.0, 0.0, 40.0, omit=("-z", "-y"))
-         + box(5500.0, 5560.0, 0.0, 2110.0, 0.0, 40.0, omit=("-z", "-y"))
-         + box(4600.0, 5500.0, 2050.0, 2110.0, 0.0, 40.0, omit=("-z",)))
+         box(4540.0, 4600.0, 0.0, 2110.0, 0.0, 40.0, omit=("-z", "-y"),
+             trim={"+x": ("z", 10.0, 40.0)})
+         + box(5500.0, 5560.0, 0.0, 2110.0, 0.0, 40.0, omit=("-z", "-y"),
+               trim={"-x": ("z", 10.0, 40.0)})
+         + box(4600.0, 5500.0, 2050.0, 2110.0, 0.0, 40.0, omit=("-z",),
+               trim={"-y": ("z", 10.0, 40.0)}))
     return objs
 
 
