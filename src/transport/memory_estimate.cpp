@@ -51,12 +51,15 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
 }
 
 // The parts from the counts already in m (patches, visible pairs); reflectors: the patches of
-// each lobed material (a face's, or one patch at a time).
+// each lobed material (a face's, or one patch at a time); reflector_partners: the visible
+// partners of a reflector patch, when measured (else the mean patch's).
 MemoryEstimate with_parts(MemoryEstimate m,
                           const std::vector<std::pair<double, const Material*>>& reflectors,
-                          const SystemOptions& options) {
-  // Transfer entries: each reflector patch's mean visible partners times the targets a pair reaches.
-  const double partners = m.patches > 0.0 ? 2.0 * m.visible_pairs / m.patches : 0.0;
+                          const SystemOptions& options, double reflector_partners = -1.0) {
+  // Transfer entries: each reflector patch's visible partners times the targets a pair reaches.
+  const double partners = reflector_partners >= 0.0 ? reflector_partners
+                          : m.patches > 0.0         ? 2.0 * m.visible_pairs / m.patches
+                                                    : 0.0;
   double entries = 0.0;
   for (const auto& [patches, mat] : reflectors)
     entries += patches * partners * targets_per_pair(*mat, options.specular.samples, partners);
@@ -107,32 +110,62 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
   return with_parts(m, reflectors, options);
 }
 
-MemoryEstimate estimate_memory(const World& world, const SystemOptions& options) {
+namespace {
+
+// The share of random pairs (a from `from`, or any patch when empty; b any patch) that see each
+// other: a plane test, then rays between up to kPointPairs random points of the two, since a
+// pair links (F > 0) if any part of one sees any part of the other. Centroids alone missed a
+// fifth of the partners of a glossy floor among furniture (scenes/room).
+double visible_share(const World& world, const std::vector<PatchId>& from, std::uint64_t seed) {
+  constexpr int kPointPairs = 4;
   const PatchSet& patches = world.patches();
-  MemoryEstimate m;
-  m.patches = static_cast<double>(patches.size());
   const auto n = static_cast<std::int64_t>(patches.size());
-  // Random pairs: a plane test, then a ray between the centroids.
-  Rng rng(0x706169);
+  Rng rng(seed);
   int seen = 0, tried = 0;
   for (int s = 0; s < kPairSamples && n > 1; ++s) {
-    const auto a = static_cast<PatchId>(rng.uniform() * n);
+    const auto a = from.empty() ? static_cast<PatchId>(rng.uniform() * n)
+                                : from[static_cast<size_t>(rng.uniform() * from.size())];
     const auto b = static_cast<PatchId>(rng.uniform() * n);
     if (a == b) continue;
     ++tried;
     const Patch& pa = patches[a];
     const Patch& pb = patches[b];
     if (!facing(pa.centroid, pa.normal, pb.centroid, pb.normal)) continue;
-    if (!world.caster().segment_occluded(pa.centroid, a, pb.centroid, b)) ++seen;
+    for (int k = 0; k < kPointPairs; ++k) {
+      double density;
+      const Vec3 x = k == 0 ? pa.centroid : pa.sample(rng.uniform2(), &density);
+      const Vec3 y = k == 0 ? pb.centroid : pb.sample(rng.uniform2(), &density);
+      if ((y - x).dot(pa.normal) <= 0.0 || (x - y).dot(pb.normal) <= 0.0) continue;
+      if (!world.caster().segment_occluded(x, a, y, b)) {
+        ++seen;
+        break;
+      }
+    }
   }
-  // A pair partly hidden at its centroids still links (F > 0): a tenth more than the rays see.
-  m.visible_pairs = tried > 0 ? 1.1 * seen / tried * 0.5 * m.patches * (m.patches - 1) : 0.0;
+  // Pairs hidden at these points may still link through the rest: a tenth more than seen.
+  return tried > 0 ? 1.1 * seen / tried : 0.0;
+}
+
+}  // namespace
+
+MemoryEstimate estimate_memory(const World& world, const SystemOptions& options) {
+  const PatchSet& patches = world.patches();
+  MemoryEstimate m;
+  m.patches = static_cast<double>(patches.size());
+  m.visible_pairs = visible_share(world, {}, 0x706169) * 0.5 * m.patches * (m.patches - 1);
   std::vector<std::pair<double, const Material*>> reflectors;
-  for (const Patch& p : patches.patches) {
-    const Material& mat = world.materials()[p.material];
-    if (mat.has_lobe()) reflectors.emplace_back(1.0, &mat);
+  std::vector<PatchId> lobed;
+  for (PatchId i = 0; i < static_cast<PatchId>(patches.size()); ++i) {
+    const Material& mat = world.materials()[patches[i].material];
+    if (!mat.has_lobe()) continue;
+    reflectors.emplace_back(1.0, &mat);
+    lobed.push_back(i);
   }
-  return with_parts(m, reflectors, options);
+  // The reflectors' partners sampled on their own: a glossy floor sees most of a room, half
+  // again the mean patch's partners in scenes/room, and its transfer grows with them.
+  if (lobed.empty()) return with_parts(m, reflectors, options);
+  const double partners = visible_share(world, lobed, 0x6c6f6265) * (m.patches - 1);
+  return with_parts(m, reflectors, options, partners);
 }
 
 void require_memory_before_meshing(const MemoryEstimate& need, double budget,

@@ -18,14 +18,15 @@
 // Visible pairs: before meshing, the pairs of faces that face each other, weighted by their
 // patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked; the check
 // before meshing refuses only past a tenth); from a built world, 4096 random patch pairs tested
-// by a plane test and a ray between centroids.
+// by a plane test and a ray between centroids, and 4096 more from the reflectors' patches for
+// their partners (a glossy floor sees more of a room than the mean patch does).
 //
 //   SystemOptions o;
 //   o.camera_bytes = gather_memory(gather_options, pixels, true);
 //   require_memory(estimate_memory(*world, o), memory_budget(o.max_memory_bytes),
 //                  world->scene().file);
 //
-// Cost: O(faces^2) before meshing (sampled beyond 4000 faces); 4096 rays from a world.
+// Cost: O(faces^2) before meshing (sampled beyond 4000 faces); 8192 rays from a world.
 #pragma once
 
 #include <string>
