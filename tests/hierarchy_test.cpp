@@ -39,6 +39,14 @@ std::unique_ptr<RadiositySystem> build(Scene scene, const Options& o) {
   return build_system(std::move(scene), o.overrides, o.system);
 }
 
+// A shipped scene on coarse roots (patch size 100) and a loose tolerance: a small hierarchy
+// that still refines.
+std::unique_ptr<RadiositySystem> coarse_hierarchy(const std::string& scene) {
+  Options o = hierarchical(0.2);
+  o.overrides.patch_size = 100;
+  return build(load_scene(test::scene_path(scene)), o);
+}
+
 std::string grey(double a) {
   std::ostringstream s;
   s << R"({"type": "diffuse", "reflectance": [)" << a << ", " << a << ", " << a << "]}";
@@ -182,9 +190,7 @@ Field expect_jacobi_is_the_power_series(const RadiositySystem& sys) {
 // The contract the series rests on: K Jacobi sweeps are the order-K power series, through the
 // precompute's own products, and T's powers summed by hand.
 TEST(Hierarchy, JacobiSweepsAreThePowerSeries) {
-  Options o = hierarchical(0.2);
-  o.overrides.patch_size = 100;
-  auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+  auto sys = coarse_hierarchy("cornell-box");
   const auto& t = sys->transport;
   ASSERT_TRUE(t.hierarchical());
   ASSERT_GT(sys->hierarchy->num_leaves(), sys->hierarchy->num_roots());
@@ -354,9 +360,7 @@ TEST(Hierarchy, ALeafIsFoundUnderEveryPointOfItsRoot) {
 TEST(Hierarchy, SameLinksOnOneOrTwoThreads) {
   auto build_on = [](int threads) {
     omp_set_num_threads(threads);
-    Options o = hierarchical(0.2);
-    o.overrides.patch_size = 100;
-    auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+    auto sys = coarse_hierarchy("cornell-box");
     omp_set_num_threads(omp_get_num_procs());
     return sys;
   };
@@ -595,9 +599,7 @@ TEST(Hierarchy, ColumnSumsWithLobesStayWithinTheLargestAlbedo) {
 // precompute's product agree, and Gauss-Seidel (trees, then the reflectors' rows) converges to
 // Jacobi's solution.
 TEST(Hierarchy, JacobiSweepsAreThePowerSeriesWithLinks) {
-  Options o = hierarchical(0.2);
-  o.overrides.patch_size = 100;
-  auto sys = build(load_scene(test::scene_path("cornell-mirror-cube")), o);
+  auto sys = coarse_hierarchy("cornell-mirror-cube");
   const auto& t = sys->transport;
   ASSERT_GT(t.num_links(), 0);
   const Field b = expect_jacobi_is_the_power_series(*sys);
