@@ -126,8 +126,8 @@ TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
   RayCaster caster(ps);
   const FormFactorOptions o;
   FormFactors ff = compute_form_factors(ps, caster, o);
-  const std::vector<double> exposed =
-      exposed_areas(ps, caster, o.exposure_points, o.exposure_refined);
+  const ExposureMap exposure(ps, caster, o.exposure_points, o.exposure_refined);
+  const std::vector<double> exposed = exposure.areas();
   const auto n = static_cast<PatchId>(ps.size());
   long long checked = 0;
   for (PatchId i = 0; i < n; ++i)
@@ -137,7 +137,7 @@ TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
       const PatchId a = ps[i].area <= ps[j].area ? i : j, b = a == i ? j : i;
       const std::uint64_t key = static_cast<std::uint64_t>(i) * static_cast<std::uint64_t>(n) + j;
       const double g =
-          pair_area_form_factor(ps[a], ps[b], &caster, o, key, nullptr, exposed[a] / ps[a].area);
+          pair_area_form_factor(ps[a], ps[b], &caster, o, key, nullptr, exposure[a]);
       EXPECT_EQ(static_cast<float>(g / exposed[i]), static_cast<float>(stored)) << i << ", " << j;
       ++checked;
     }

@@ -139,5 +139,26 @@ TEST(Mesher, SampleGivesThePointsParameters) {
       }
 }
 
+TEST(Mesher, UnsampleInvertsSample) {
+  // Exposure grids are read at a point's unit-square coordinates (exposure.h): a trapezoid, a
+  // non-planar quad and a triangle, with points off a flat patch's plane projected onto it.
+  Patch trapezoid = test::make_quad({0, 0, 0}, {2, 0, 0}, {1.5, 1, 0}, {0, 1, 0});
+  Patch warped = test::make_quad({0, 0, 0}, {2, 0, 0}, {1.5, 1, 0.2}, {0, 1, 0});
+  Patch tri = test::make_quad({0, 0, 0}, {2, 0, 0}, {0.5, 1, 0}, {0.5, 1, 0});
+  tri.corners = 3;
+  for (const Patch* p : {&trapezoid, &warped, &tri})
+    for (double s0 : {0.0, 0.13, 0.5, 0.97})
+      for (double s1 : {0.02, 0.31, 0.77, 1.0}) {
+        double density;
+        const Vec3 y = p->sample(Vec2(s0, s1), &density);
+        const Vec2 s = p->unsample(p == &warped ? y : y + 1e-3 * p->normal);
+        EXPECT_NEAR(s.x(), s0, 1e-6) << p->corners << " " << s0 << " " << s1;
+        if (s0 > 0.0) EXPECT_NEAR(s.y(), s1, 1e-6) << p->corners << " " << s0 << " " << s1;
+      }
+  // Outside the patch: clamped to the square.
+  const Vec2 s = trapezoid.unsample(Vec3(-1, 3, 0));
+  EXPECT_EQ(s, Vec2(0.0, 1.0));
+}
+
 }  // namespace
 }  // namespace polyrad

@@ -199,6 +199,32 @@ Vec3 Patch::sample(const Vec2& s, double* density, Vec2* uv) const {
   return point(u, v);
 }
 
+Vec2 Patch::unsample(const Vec3& x) const {
+  const auto unit = [](double t) { return std::clamp(t, 0.0, 1.0); };
+  // Least squares in the patch's plane: [e1 e2]^T [e1 e2] delta = [e1 e2]^T r.
+  const auto solve = [](const Vec3& e1, const Vec3& e2, const Vec3& r) {
+    const double a = e1.dot(e1), b = e1.dot(e2), c = e2.dot(e2), det = a * c - b * b;
+    if (!(std::abs(det) > 0.0)) return Vec2(0.0, 0.0);
+    const double p = e1.dot(r), q = e2.dot(r);
+    return Vec2((c * p - b * q) / det, (a * q - b * p) / det);
+  };
+  if (is_triangle()) {
+    // Barycentric (u, v), then sample's warp backwards: r = u + v, s = (r^2, v / r).
+    const Vec2 uv = solve(corner[1] - corner[0], corner[2] - corner[0], x - corner[0]);
+    const double r = unit(uv.x() + uv.y());
+    return Vec2(r * r, r > 0.0 ? unit(uv.y() / r) : 0.5);
+  }
+  Vec2 s(0.5, 0.5);
+  for (int step = 0; step < 8; ++step) {
+    Vec3 du, dv;
+    tangents(s.x(), s.y(), &du, &dv);
+    const Vec2 delta = solve(du, dv, x - point(s.x(), s.y()));
+    s += delta;
+    if (delta.squaredNorm() < 1e-24) break;
+  }
+  return Vec2(unit(s.x()), unit(s.y()));
+}
+
 double Patch::diameter() const {
   double d = 0.0;
   for (int a = 0; a < corners; ++a)

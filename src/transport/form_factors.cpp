@@ -298,23 +298,6 @@ class PolygonSampler {
   int count_ = 0;
 };
 
-// The exposed fraction of patch p on an n x n grid of its parameters (area-density weighted),
-// counting only the points on the front of the plane (origin, normal) when normal is not zero:
-// the part of p that a partner's plane leaves. 1 when no grid point lies there.
-double exposed_fraction(const Patch& p, const RayCaster& caster, int n,
-                        const Vec3& origin = Vec3::Zero(), const Vec3& normal = Vec3::Zero()) {
-  double exposed = 0.0, total = 0.0;
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b < n; ++b) {
-      double density;
-      Vec3 x = p.sample(Vec2((a + 0.5) / n, (b + 0.5) / n), &density);
-      if ((x - origin).dot(normal) < 0.0) continue;
-      total += density;
-      if (!is_buried(x, p, caster)) exposed += density;
-    }
-  return total > 0.0 ? exposed / total : 1.0;
-}
-
 bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) {
   for (int c = 0; c < p.corners; ++c)
     if ((p.corner[c] - plane.centroid).dot(plane.normal) > eps) return true;
@@ -333,7 +316,8 @@ int points_for(const Patch& a, const Patch& b, double larger_diameter, const For
 // With `whole` (and a's id), a whole quad a that needs no refinement takes its rule from there.
 double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_diameter,
                                const RayCaster* caster, const FormFactorOptions& options,
-                               std::uint64_t key, long long& rays_cast, double a_exposed,
+                               std::uint64_t key, long long& rays_cast,
+                               const PatchExposure& a_exposure,
                                std::vector<QuadraturePoint>& buffer,
                                const WholeQuadRules* whole = nullptr, PatchId a_id = -1) {
   Polygon a_front, b_front;
@@ -363,12 +347,12 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
   // point is a chain of dependent divisions and square roots, and the chains of a batch overlap
   // where one after each ray would wait for the one before (7 percent of the whole).
   constexpr int kBatch = 8;
-  const bool partly_buried = caster && a_exposed < 1.0;
+  const bool partly_buried = caster && !a_exposure.wholly();
   double total = 0.0, weight = 0.0, exposed_weight = 0.0;
   for (size_t q = 0; q < points.size(); ++q) {
     const Vec3& x = points[q].x;
     weight += points[q].w;
-    if (partly_buried && is_buried(x, a, *caster)) continue;
+    if (partly_buried && !a_exposure.exposed_at(a, x, *caster)) continue;
     exposed_weight += points[q].w;
     // Visibility first: the unoccluded factor (eq. 5) is not needed where every ray is blocked.
     double visible = 1.0;
@@ -417,8 +401,8 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
   if (partly_buried) {
     if (exposed_weight <= 0.0) return 0.0;
     const double region_exposed =
-        a_whole ? a_exposed
-                : exposed_fraction(a, *caster, options.exposure_refined / 2, b.centroid, b.normal);
+        a_whole ? a_exposure.fraction
+                : a_exposure.fraction_in_front(a, b.centroid, b.normal, *caster);
     return total * weight * region_exposed / exposed_weight;
   }
   return total;
@@ -445,7 +429,7 @@ double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<cons
 
 double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* caster,
                              const FormFactorOptions& options, std::uint64_t key,
-                             long long* rays_cast, double a_exposed) {
+                             long long* rays_cast, const PatchExposure& a_exposure) {
   const double larger_diameter = std::max(a.diameter(), b.diameter());
   double eps = 1e-9 * larger_diameter;
   if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return 0.0;
@@ -453,82 +437,9 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
   thread_local std::vector<QuadraturePoint> points;
   long long rays = 0;
   double g =
-      facing_pair_form_factor(a, b, larger_diameter, caster, options, key, rays, a_exposed, points);
+      facing_pair_form_factor(a, b, larger_diameter, caster, options, key, rays, a_exposure, points);
   if (rays_cast) *rays_cast += rays;
   return g;
-}
-
-namespace {
-
-// The probes of is_buried in a patch's frame: the normal, four at 30 degrees from it and eight
-// at 60, spread in azimuth so that the rings interleave.
-std::array<Vec3, 13> burial_probes() {
-  std::array<Vec3, 13> d;
-  d[0] = Vec3(0, 0, 1);
-  for (int k = 0; k < 12; ++k) {
-    const bool inner = k < 4;
-    const double theta = inner ? kPi / 6.0 : kPi / 3.0;
-    const double phi = inner ? (k + 0.5) * kPi / 2.0 : (k - 4) * kPi / 4.0;
-    d[k + 1] = Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                    std::cos(theta));
-  }
-  return d;
-}
-
-// Whether any probe from x (on p) meets the back of a surface.
-bool sees_a_back(const Vec3& x, const Patch& p, const RayCaster& caster) {
-  static const std::array<Vec3, 13> kProbes = burial_probes();
-  const Frame frame = Frame::from_normal(p.normal);
-  for (const Vec3& d : kProbes) {
-    Hit h = caster.intersect_from(x, p, frame.to_world(d));
-    if (h.valid() && !h.front) return true;
-  }
-  return false;
-}
-
-}  // namespace
-
-bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster) {
-  // Buried: a majority of 13 probes meet the back of a surface (x is inside a closed object),
-  // or x is enclosed by fronts that all see a back themselves. A majority, not all: faces of
-  // objects nested in or cutting another see each other's fronts through some probes. The second
-  // test is for a space closed partly by other surfaces' fronts: inside a cupboard in a corner,
-  // open at its back and side, a point near the corner sees the two walls and the floor with
-  // most probes, but every wall or floor point it sees sees the cupboard's inside in turn. A
-  // point under a one-sided panel (a table top) sees its back too, but also fronts far off in
-  // the room that see no back, so it stays open, as does a point in free space, which sees no
-  // back at all.
-  static const std::array<Vec3, 13> kProbes = burial_probes();
-  constexpr int kMajority = 7;
-  const Frame frame = Frame::from_normal(p.normal);
-  std::array<Hit, 13> fronts;
-  int open = 0, back = 0;
-  for (const Vec3& d : kProbes) {
-    Hit h = caster.intersect_from(x, p, frame.to_world(d));
-    if (!h.valid()) return false;  // x sees out of the scene: not enclosed
-    if (h.front) {
-      fronts[open++] = h;
-    } else if (++back >= kMajority) {
-      return true;
-    }
-  }
-  if (back == 0) return false;
-  for (int k = 0; k < open; ++k)
-    if (!sees_a_back(fronts[k].position, caster.patches()[fronts[k].patch], caster)) return false;
-  return true;
-}
-
-std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
-                                  int refined_points) {
-  const auto n = static_cast<PatchId>(patches.size());
-  std::vector<double> area(n);
-#pragma omp parallel for schedule(dynamic, 16)
-  for (PatchId i = 0; i < n; ++i) {
-    double f = exposed_fraction(patches[i], caster, points);
-    if (f > 0.0 && f < 1.0) f = exposed_fraction(patches[i], caster, refined_points);
-    area[i] = patches[i].area * f;
-  }
-  return area;
 }
 
 double FormFactors::row_sum(PatchId i) const {
@@ -541,8 +452,8 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
                                  const FormFactorOptions& options) {
   const Stopwatch watch;
   const auto n = static_cast<PatchId>(patches.size());
-  std::vector<double> exposed =
-      exposed_areas(patches, caster, options.exposure_points, options.exposure_refined);
+  const ExposureMap exposure(patches, caster, options.exposure_points, options.exposure_refined);
+  std::vector<double> exposed = exposure.areas();
   // upper[i]: (j, A_i F_ij) for j > i. Filled by whichever thread owns row i.
   std::vector<std::vector<std::pair<PatchId, double>>> upper(n);
   long long facing = 0, rays = 0;
@@ -572,7 +483,7 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
         double g = exposed[a_id] <= 0.0
                        ? 0.0
                        : facing_pair_form_factor(a, b, larger_diameter, &caster, options, key, rays,
-                                                 exposed[a_id] / a.area, points, &whole, a_id);
+                                                 exposure[a_id], points, &whole, a_id);
         if (g > 0.0 && exposed[i] > 0.0 && exposed[j] > 0.0) upper[i].emplace_back(j, g);
       }
       progress.advance();

@@ -54,6 +54,9 @@ struct Patch {
   // relative to uniform (1 for triangles and parallelograms): weight integrands by it to
   // integrate over area exactly. uv, when given, receives the point's parameters (as point()).
   Vec3 sample(const Vec2& s, double* density, Vec2* uv = nullptr) const;
+  // The inverse of sample: the unit-square s whose point is the projection of x onto the
+  // patch, clamped to the square (Newton's method on a quad's bilinear map, a few steps).
+  Vec2 unsample(const Vec3& x) const;
   // The largest distance between two corners.
   double diameter() const;
 };

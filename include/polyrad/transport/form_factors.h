@@ -11,14 +11,10 @@
 // share an edge (where the point-to-point integrand is singular but the contour formula is not).
 // One value G_ij = A_i F_ij is computed per pair, so reciprocity holds to rounding.
 //
-// Exposure: the part of a patch buried inside other geometry (a floor under a block, a ceiling
-// behind a lamp mounted flush with it) can neither receive nor send light, and no camera sees
-// it. Its area is left out: F_ij = G_ij / A'_i with A'_i the exposed area, so that B_i is the
-// radiosity of the part light reaches rather than an average that mixes in the dark part and
-// shows as a dark halo (a contact shadow that is not there). A'_i is measured on 4 x 4 points,
-// refined to 32 x 32 where the buried boundary crosses the patch; for such a patch the pair
-// integral is normalised by the exposed weight of its own quadrature points, so that both sides
-// of F_ij = G_ij / A'_i see the boundary at the same resolution.
+// Exposure: the part of a patch buried inside other geometry is left out, F_ij = G_ij / A'_i
+// with A'_i the exposed area (exposure.h). For a partly buried patch the pair integral is
+// normalised by the exposed weight of its own quadrature points, read from the patch's exposure
+// grid, so that both sides of F_ij = G_ij / A'_i see the boundary at the same resolution.
 //
 // Deterministic for any thread count: shadow-ray points come from (seed, pair, point) keys.
 //
@@ -34,6 +30,7 @@
 
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
+#include "polyrad/transport/exposure.h"
 #include "polyrad/util/sparse.h"
 
 namespace polyrad {
@@ -76,21 +73,13 @@ FormFactors compute_form_factors(const PatchSet& patches, const RayCaster& caste
 // A_a F_ab for one pair, integrated over a (with visibility if caster is non-null): the
 // building block, exposed for tests. key seeds the shadow-ray points; rays_cast, if given, is
 // increased by the number of shadow rays.
-// a_exposed: a's exposed fraction A'_a / A_a; below 1 the quadrature points are tested for being
-// buried and the result is A'_a times the mean over a's exposed points.
+// a_exposure: a's exposure (a bare fraction A'_a / A_a converts to one); below 1 the quadrature
+// points are tested for being buried (on a's grid if it has one, else by probes) and the result
+// is A'_a times the mean over a's exposed points.
 double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* caster,
                              const FormFactorOptions& options, std::uint64_t key,
-                             long long* rays_cast = nullptr, double a_exposed = 1.0);
-
-// True if x (on patch p) lies inside closed geometry, as exposed_areas describes.
-bool is_buried(const Vec3& x, const Patch& p, const RayCaster& caster);
-
-// The exposed area of every patch: a point is buried when most of 13 probe rays (along the
-// normal, and tilted 30 and 60 degrees around it) meet the back of a surface, i.e. it lies
-// inside a closed object (also one nested in or cutting another, or one closed on some sides by
-// walls and floor) or sandwiched under a one-sided panel. Deterministic (fixed points).
-std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
-                                  int refined_points);
+                             long long* rays_cast = nullptr,
+                             const PatchExposure& a_exposure = PatchExposure());
 
 // The exact form factor from a point x with normal n to a polygon that lies entirely in front
 // of x's tangent plane and faces x (Lambert's formula). At most 8 corners (std::invalid_argument
