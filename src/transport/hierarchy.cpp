@@ -119,6 +119,38 @@ LinearFit fit_linear(const Element& r, const std::array<float, kOraclePoints>& f
   return fit;
 }
 
+// The energy guard's factors c_k for one tree's leaves, of exposed areas A'_k and form-factor
+// sums s_k: c_k = min(w, 1 / s_k), so that no leaf shoots more than its flux (c_k s_k <= 1),
+// with the water level w >= 1 that keeps the tree's flux sum_k A'_k c_k s_k at sum_k A'_k s_k,
+// or as near as the leaves' room (sum_k A'_k over the leaves that shoot) allows. By bisection.
+std::vector<double> guard_weights(const std::vector<double>& area, const std::vector<double>& sum) {
+  double flux = 0.0, room = 0.0;
+  for (std::size_t k = 0; k < area.size(); ++k) {
+    flux += area[k] * sum[k];
+    if (sum[k] > 0.0) room += area[k];
+  }
+  const auto shot = [&](double w) {
+    double f = 0.0;
+    for (std::size_t k = 0; k < area.size(); ++k) f += area[k] * std::min(w * sum[k], 1.0);
+    return f;
+  };
+  double w = 1.0;
+  if (shot(1.0) < flux) {
+    double lo = 1.0, hi = 2.0;
+    while (shot(hi) < flux && hi < 1e6) hi *= 2.0;
+    if (flux >= room) {
+      w = hi;  // no water level keeps it: every leaf shoots its whole flux
+    } else {
+      for (int step = 0; step < 60; ++step) (shot(0.5 * (lo + hi)) < flux ? lo : hi) = 0.5 * (lo + hi);
+      w = hi;
+    }
+  }
+  std::vector<double> c(area.size(), 1.0);
+  for (std::size_t k = 0; k < area.size(); ++k)
+    if (sum[k] > 0.0) c[k] = std::min(w, 1.0 / sum[k]);
+  return c;
+}
+
 // The factor (at most 1) by which slopes must shrink for a linear function of this mean to stay
 // non-negative on r: a linear function's least value on a polygon is at a corner.
 double non_negative_scale(const Element& r, const Vec2& slope, double mean) {
@@ -687,23 +719,37 @@ void HierarchyBuilder::make_operator() {
   }
   // The energy guard: a leaf shoots at most its own flux. The form factors along the links of
   // the nodes above a leaf, each at the leaf's own place to first order, sum to about its true
-  // total, at most 1; where they sum above it, the leaf's values are scaled by the inverse
-  // before the pull, so every column of T stays at most a_max.
+  // total, at most 1; where they sum above it (near contacts, where the linear functions are too
+  // coarse), the leaf's values are scaled by the inverse before the pull, so every column of T
+  // stays at most a_max. The links' etendues are exact, so what the guard takes from a tree's
+  // leaves is given back to its other leaves, up to 1 each (guard_weights): scaling alone lost
+  // 1.5 percent of the flux the room's leaves shoot, and up to 1 percent of a closed box's rows.
   op->guard_.assign(op->leaf_node_.size(), 1.0f);
   {
     const std::vector<double> sums = op->column_sums(false, false);
     h_.stats_.guard_max_excess = 0.0;
     h_.stats_.guard_leaves = 0;
-    for (size_t l = 0; l < sums.size(); ++l) {
-      const double sum = sums[l];
+    for (double sum : sums)
       if (sum > 1.0) {
         h_.stats_.guard_max_excess = std::max(h_.stats_.guard_max_excess, sum - 1.0);
-        if (o_.energy_guard) {
-          op->guard_[l] = static_cast<float>(1.0 / sum);
+        ++h_.stats_.guard_leaves;
+      }
+    if (o_.energy_guard) {
+      std::vector<std::vector<std::int32_t>> tree_leaves(roots_.size());
+      for (std::size_t l = 0; l < sums.size(); ++l)
+        tree_leaves[el_[h_.leaf_element_[l]].root].push_back(static_cast<std::int32_t>(l));
+      for (const auto& leaves : tree_leaves) {
+        std::vector<double> area(leaves.size()), sum(leaves.size());
+        for (std::size_t k = 0; k < leaves.size(); ++k) {
+          area[k] = el_[h_.leaf_element_[leaves[k]]].exposed;
+          sum[k] = sums[leaves[k]];
+        }
+        const std::vector<double> c = guard_weights(area, sum);
+        for (std::size_t k = 0; k < leaves.size(); ++k) {
+          float& g = op->guard_[leaves[k]];
+          g = static_cast<float>(c[k]);
           // float rounding must not leave the product above 1
-          while (static_cast<double>(op->guard_[l]) * sum > 1.0)
-            op->guard_[l] = std::nextafter(op->guard_[l], 0.0f);
-          ++h_.stats_.guard_leaves;
+          while (static_cast<double>(g) * sum[k] > 1.0) g = std::nextafter(g, 0.0f);
         }
       }
     }

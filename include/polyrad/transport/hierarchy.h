@@ -48,10 +48,12 @@
 // together where the kernel they make could go negative on the pair, so T is non-negative, and
 // a linear function's area mean over the children is its value at their area centroids, so each
 // link delivers exactly its etendue's flux: in flux form (weights pi A'_l) the column of leaf l
-// sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). c_l <= 1, the energy
+// sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). c_l, the energy
 // guard, scales the leaves where those form factors would sum above 1 (near contacts, where the
-// linear functions are too coarse), so every column of T sums to at most a_max: section 5's
-// bound, the Jacobi = series identity and the precompute hold unchanged.
+// linear functions are too coarse) to 1, so every column of T sums to at most a_max: section 5's
+// bound, the Jacobi = series identity and the precompute hold unchanged. What it takes it gives
+// back to the other leaves of the same tree (c_l > 1 where the sum is below 1, never above it),
+// so each tree shoots the flux its links' etendues carry.
 //
 // Lobes (eq. H3, RootSpecular below): mirror, glossy and Phong light moves on link unknowns
 // S_{i->k} between ROOTS, with the uniform mesh's transfer computed on the roots (once, after
