@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <span>
 
 #include "polyrad/util/error.h"
@@ -587,13 +588,25 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
   }
   progress.finish();
   h_.stats_.form_factor_rays += rays;
-  for (const auto& l : pending_links_)
-    if (l.m > 0.0f) h_.links_.push_back(l);
-  pending_links_.clear();
+  // Into the links without a second copy of them: on the mirror cube, the pending list's
+  // capacity and the links grown by doubling beside it were two of the four 32 MiB blocks held
+  // at the build's peak.
+  const auto linked = [](const ElementLink& l) { return l.m > 0.0f; };
+  if (h_.links_.empty()) {
+    h_.links_.swap(pending_links_);
+    std::erase_if(h_.links_, [&](const ElementLink& l) { return !linked(l); });
+  } else {
+    h_.links_.reserve(h_.links_.size() + static_cast<std::size_t>(std::count_if(
+                                             pending_links_.begin(), pending_links_.end(), linked)));
+    std::copy_if(pending_links_.begin(), pending_links_.end(), std::back_inserter(h_.links_),
+                 linked);
+  }
+  std::vector<ElementLink>().swap(pending_links_);  // its memory too, not only its size
   pass.form_factor_seconds += t0.seconds();
 }
 
 void HierarchyBuilder::make_operator() {
+  h_.op_.reset();  // the last pass's operator, freed before this one is built
   auto op = std::make_shared<HierarchicalOperator>();
   const auto ne = static_cast<std::int32_t>(el_.size());
   // Pre-order, tree by tree: a parent before its children, child 0 first.
@@ -930,28 +943,29 @@ void HierarchyBuilder::run() {
   // splitting the larger end.
   for (int p = 1; p <= o_.passes; ++p) {
     HierarchyPass next;
-    std::vector<ElementLink> keep;
     std::vector<Candidate> again;
     struct Split {
       std::int32_t element, other;
       LinkVisibility visibility;
     };
     std::vector<Split> split_links;
-    for (const auto& l : h_.links_) {
+    std::size_t kept = 0;  // the links kept, compacted in place (no copy of them all)
+    for (std::size_t k = 0; k < h_.links_.size(); ++k) {
+      const ElementLink l = h_.links_[k];
       if (accurate(l)) {
-        keep.push_back(l);
+        h_.links_[kept++] = l;
       } else if (l.visibility == LinkVisibility::kUntested) {
         again.push_back({l.a, l.b, l.m});
       } else {
         const std::int32_t s = split_choice(l.a, l.b);
         if (s < 0)
-          keep.push_back(l);
+          h_.links_[kept++] = l;
         else
           split_links.push_back({s, s == l.a ? l.b : l.a, l.visibility});
       }
     }
     if (again.empty() && split_links.empty()) break;
-    h_.links_.swap(keep);
+    h_.links_.resize(kept);
     std::vector<std::int32_t> to_split;
     for (const auto& sl : split_links) to_split.push_back(sl.element);
     split_all(to_split, next);
