@@ -16,7 +16,7 @@ constexpr double kBaseBytes = 130.0 * (1 << 20);
 constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
-constexpr double kRootPairBytes = 600.0;
+constexpr double kRootPairBytes = 360.0;
 constexpr double kVisibleShareOfFacing = 0.75;
 // Before meshing, work is refused only if it would not fit even were this share of the facing
 // pairs all that see each other: a cluttered scene whose pairs are mostly blocked is left to the
@@ -44,7 +44,7 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
     const double transfer = o.hierarchy.specular_links ? reflector_pairs_targets * kEntryBytes : 0.0;
-    const double growth = std::min(kMaxRefinementGrowth, std::pow(std::max(1.0, 0.05 / tau), 1.2));
+    const double growth = std::min(kMaxRefinementGrowth, std::max(1.0, 0.05 / tau));
     return pairs * kRootPairBytes * growth + transfer;
   }
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
