@@ -267,6 +267,8 @@ class HierarchyBuilder {
   bool point_form_factors(std::int32_t a, std::int32_t b, ElementLink& l) const;
   // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
   // visible fractions.
+  // Element e's exposure: its fraction A'_e / A_e, with its grid where it has one.
+  PatchExposure exposure_of(std::int32_t e) const;
   LinkVisibility probe(ElementLink& l, long long* rays) const;
   Outcome judge(const Candidate& c) const;
   std::uint64_t pair_key(std::int32_t a, std::int32_t b) const;
@@ -298,6 +300,11 @@ class HierarchyBuilder {
   std::vector<double> min_size_;            // per root
   std::vector<Eigen::Array3d> rho_, b_;     // per element: reflectance, current radiosity
   std::vector<ElementLink> pending_links_;  // judged to link, form factor still to compute
+  // Exposure grids (exposure.h): the roots' map, then one per batch of children measured; per
+  // element, its map and index there ({-1, -1}: none, as for the children of a wholly exposed
+  // or buried parent).
+  std::vector<ExposureMap> exposure_maps_;
+  std::vector<std::array<std::int32_t, 2>> exposure_at_;
   std::vector<std::int32_t> node_element_;  // the operator's node -> element
   double b_ref_ = 0.0;
   bool lobes_ = false;  // some root has a lobe and the specular links are on
@@ -357,6 +364,20 @@ bool HierarchyBuilder::point_form_factors(std::int32_t a, std::int32_t b, Elemen
   return true;
 }
 
+PatchExposure HierarchyBuilder::exposure_of(std::int32_t e) const {
+  const Element& el = el_[e];
+  PatchExposure x(el.shape.area > 0.0 ? el.exposed / el.shape.area : 0.0);
+  if (x.fraction > 0.0 && !x.wholly() && static_cast<std::size_t>(e) < exposure_at_.size()) {
+    const auto [map, index] = exposure_at_[e];
+    if (map >= 0) {
+      const PatchExposure grid = exposure_maps_[map][index];
+      x.n = grid.n;
+      x.cells = grid.cells;
+    }
+  }
+  return x;
+}
+
 LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
   // Stratified point pairs keyed by the pair, until both outcomes have been seen.
   const std::int32_t a = l.a, b = l.b;
@@ -367,6 +388,7 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
   // On a partly buried element, points inside other geometry are skipped: they see nothing and
   // no one sees them, which is not a shadow (their area is not in A').
   const bool buried_a = !wholly_exposed(el_[a]), buried_b = !wholly_exposed(el_[b]);
+  const PatchExposure exposure_a = exposure_of(a), exposure_b = exposure_of(b);
   int blocked = 0, open = 0;
   for (int k = 0; k < m && !(blocked > 0 && open > 0); ++k) {
     const double u0 = rng.uniform32(), v0 = rng.uniform32();
@@ -377,7 +399,8 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
         pa.sample(Vec2((k % side + u0) / side, ((k / side) % side + v0) / side), &density);
     const Vec3 y =
         pb.sample(Vec2((k2 % side + u1) / side, ((k2 / side) % side + v1) / side), &density);
-    if ((buried_a && is_buried(x, pa, caster_)) || (buried_b && is_buried(y, pb, caster_)))
+    if ((buried_a && !exposure_a.exposed_at(pa, x, caster_)) ||
+        (buried_b && !exposure_b.exposed_at(pb, y, caster_)))
       continue;
     ++*rays;
     if (caster_.segment_occluded(x, pa, y, pb))
@@ -400,11 +423,12 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
       Rng point(o_.seed, pair_key(a, b), which * kOraclePoints + k + 1);
       int seen = 0, cast = 0;
       const bool buried_to = which == 0 ? buried_b : buried_a;
+      const PatchExposure& exposure_to = which == 0 ? exposure_b : exposure_a;
       for (int j = 0; j < kPointRays; ++j) {
         const double u = point.uniform32(), v = point.uniform32();
         double density;
         const Vec3 y = to.sample(Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &density);
-        if (buried_to && is_buried(y, to, caster_)) continue;
+        if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
         ++*rays;
         ++cast;
         if (!caster_.segment_occluded(x, from, y, to)) ++seen;
@@ -503,8 +527,13 @@ void HierarchyBuilder::split_all(std::vector<std::int32_t>& elements, HierarchyP
     }
   if (!which.empty()) {
     const Stopwatch t0;
-    std::vector<double> area = exposed_areas(measure, caster_, 8, 16);
-    for (size_t k = 0; k < which.size(); ++k) el_[which[k]].exposed = area[k];
+    const auto map = static_cast<std::int32_t>(exposure_maps_.size());
+    exposure_maps_.emplace_back(measure, caster_, 8, 16);
+    exposure_at_.resize(el_.size(), {-1, -1});
+    for (size_t k = 0; k < which.size(); ++k) {
+      el_[which[k]].exposed = exposure_maps_.back().area(static_cast<PatchId>(k));
+      exposure_at_[which[k]] = {map, static_cast<std::int32_t>(k)};
+    }
     h_.stats_.exposure_seconds += t0.seconds();
   }
 }
@@ -577,7 +606,7 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
     const Element& ex = el_[x];
     long long r = 0;
     const double g = pair_area_form_factor(ex.shape, el_[y].shape, &caster_, o_.form_factors,
-                                           pair_key(x, y), &r, ex.exposed / ex.shape.area);
+                                           pair_key(x, y), &r, exposure_of(x));
     rays += r;
     if (x != l.a) {
       std::swap(l.a, l.b);
@@ -852,8 +881,10 @@ void HierarchyBuilder::run() {
   // The roots, with the uniform mesh's exposed areas (form_factors.h).
   {
     const Stopwatch t0;
-    std::vector<double> exposed = exposed_areas(roots_, caster_, o_.form_factors.exposure_points,
-                                                o_.form_factors.exposure_refined);
+    exposure_maps_.emplace_back(roots_, caster_, o_.form_factors.exposure_points,
+                                o_.form_factors.exposure_refined);
+    exposure_at_.resize(r);
+    for (std::int32_t p = 0; p < r; ++p) exposure_at_[p] = {0, p};
     st.exposure_seconds += t0.seconds();
     el_.resize(r);
     for (std::int32_t p = 0; p < r; ++p) {
@@ -861,7 +892,7 @@ void HierarchyBuilder::run() {
       e.shape = roots_[p];
       e.root = p;
       e.key = static_cast<std::uint64_t>(p);
-      e.exposed = exposed[p];
+      e.exposed = exposure_maps_[0].area(p);
       e.uv = roots_[p].is_triangle()
                  ? std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), Vec2(0, 1)}
                  : std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
