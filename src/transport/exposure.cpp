@@ -38,28 +38,32 @@ bool sees_a_back(const Vec3& x, const Patch& p, const RayCaster& caster) {
   return false;
 }
 
-// The centre of grid cell (a, b) on an n x n grid of p's unit square, and its area density.
-Vec3 cell_point(const Patch& p, int n, int a, int b, double* density) {
-  return p.sample(Vec2((a + 0.5) / n, (b + 0.5) / n), density);
-}
-
-// The exposed fraction of p on an n x n grid (area-density weighted), counting only the points
-// in front of the plane (origin, normal) when normal is not zero. With `bits`, cell (a, b)'s
-// E is stored at bit a * n + b (all n * n of them, the plane test aside).
-double probed_fraction(const Patch& p, const RayCaster& caster, int n, std::uint64_t* bits,
-                       const Vec3& origin = Vec3::Zero(), const Vec3& normal = Vec3::Zero()) {
+// The area-density-weighted share of the cells of an n x n grid of p's unit square that lie in
+// front of the plane (origin, normal) (all of them when normal is zero) and for which open(x, k)
+// holds, x the cell's centre and k = a * n + b its index; 1 when no cell lies in front.
+template <class Open>
+double grid_fraction(const Patch& p, int n, const Vec3& origin, const Vec3& normal, Open open) {
   double exposed = 0.0, total = 0.0;
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b) {
       double density;
-      const Vec3 x = cell_point(p, n, a, b, &density);
+      const Vec3 x = p.sample(Vec2((a + 0.5) / n, (b + 0.5) / n), &density);
       if ((x - origin).dot(normal) < 0.0) continue;
       total += density;
-      if (is_buried(x, p, caster)) continue;
-      exposed += density;
-      if (bits) bits[(a * n + b) / 64] |= std::uint64_t{1} << ((a * n + b) % 64);
+      if (open(x, a * n + b)) exposed += density;
     }
   return total > 0.0 ? exposed / total : 1.0;
+}
+
+// The exposed fraction of p on an n x n grid by probes; with `bits`, each cell's E is stored at
+// bit a * n + b.
+double probed_fraction(const Patch& p, const RayCaster& caster, int n, std::uint64_t* bits,
+                       const Vec3& origin = Vec3::Zero(), const Vec3& normal = Vec3::Zero()) {
+  return grid_fraction(p, n, origin, normal, [&](const Vec3& x, int k) {
+    if (is_buried(x, p, caster)) return false;
+    if (bits) bits[k / 64] |= std::uint64_t{1} << (k % 64);
+    return true;
+  });
 }
 
 bool bit(const std::uint64_t* bits, int k) { return (bits[k / 64] >> (k % 64)) & 1u; }
@@ -109,7 +113,7 @@ bool PatchExposure::exposed_at(const Patch& p, const Vec3& x, const RayCaster& c
   // from the cell, a buried point counted open adds nothing (its rays start inside) while
   // weighing in the mean, and the pairs of partly buried patches came out 0.1 percent dark on
   // average (region means of scenes/room).
-  for (const auto [da, db] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+  for (const auto& [da, db] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
     const int a2 = a + da, b2 = b + db;
     if (a2 < 0 || a2 >= n || b2 < 0 || b2 >= n) continue;
     if (bit(cells, a2 * n + b2) != open) return !is_buried(x, p, caster);
@@ -121,16 +125,7 @@ double PatchExposure::fraction_in_front(const Patch& p, const Vec3& origin, cons
                                         const RayCaster& caster) const {
   if (wholly()) return 1.0;
   if (n == 0) return probed_fraction(p, caster, 16, nullptr, origin, normal);
-  double exposed = 0.0, total = 0.0;
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b < n; ++b) {
-      double density;
-      const Vec3 x = cell_point(p, n, a, b, &density);
-      if ((x - origin).dot(normal) < 0.0) continue;
-      total += density;
-      if (bit(cells, a * n + b)) exposed += density;
-    }
-  return total > 0.0 ? exposed / total : 1.0;
+  return grid_fraction(p, n, origin, normal, [&](const Vec3&, int k) { return bit(cells, k); });
 }
 
 ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster, int points,
