@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include "polyrad/solve/solver.h"
+#include "polyrad/util/sampling.h"
 #include "polyrad/transport/system.h"
 #include "test_support.h"
 
@@ -142,6 +143,45 @@ TEST(FormFactors, EachStoredValueIsItsPairsOwnFormFactor) {
       ++checked;
     }
   EXPECT_GT(checked, 1000);
+}
+
+// A partly buried patch keeps the grid its exposed area was measured on, and the pair integrals
+// read it instead of probing (exposure.h). On the Cornell box's floor patches under the blocks:
+// at random points the grid says what the probes say (cells beside the boundary probe), and the
+// pair form factors agree with probing every point within 0.2 percent in sum (4e-5 measured),
+// the difference being the clipped regions' exposure, now on the 32 x 32 grid where probing
+// used 16 x 16. Read with the grid's axes swapped, 72 percent of the points agree and the sum is
+// 23 percent low.
+TEST(FormFactors, ExposureGridReadsWhatTheProbesSee) {
+  Scene scene = load_scene(test::scene_path("cornell-box"));
+  for (auto& object : scene.objects) object.patch_size = 50;
+  PatchSet ps = mesh_scene(scene);
+  RayCaster caster(ps);
+  const FormFactorOptions o;
+  const ExposureMap exposure(ps, caster, o.exposure_points, o.exposure_refined);
+  ASSERT_GE(exposure.partly_buried(), 8u);
+  Rng rng(5, 0);
+  long long points = 0, agree = 0;
+  double grid_sum = 0.0, probe_sum = 0.0;
+  for (PatchId a = 0; a < static_cast<PatchId>(ps.size()); ++a) {
+    const PatchExposure e = exposure[a];
+    if (e.n == 0) continue;
+    for (int k = 0; k < 200; ++k) {
+      double density;
+      const Vec3 x = ps[a].sample(rng.uniform2(), &density);
+      ++points;
+      agree += e.exposed_at(ps[a], x, caster) == !is_buried(x, ps[a], caster);
+    }
+    for (PatchId b = 0; b < static_cast<PatchId>(ps.size()); ++b) {
+      if (b == a) continue;  // a as the outer patch, also where the build would take b
+      const std::uint64_t key = static_cast<std::uint64_t>(a) * ps.size() + b;
+      grid_sum += pair_area_form_factor(ps[a], ps[b], &caster, o, key, nullptr, e);
+      probe_sum += pair_area_form_factor(ps[a], ps[b], &caster, o, key, nullptr, e.fraction);
+    }
+  }
+  EXPECT_GE(static_cast<double>(agree), 0.99 * points) << agree << " of " << points;
+  ASSERT_GT(probe_sum, 0.0);
+  EXPECT_NEAR(grid_sum / probe_sum, 1.0, 2e-3);
 }
 
 TEST(FormFactors, SameNumbersOnOneOrTwoThreads) {
