@@ -13,9 +13,10 @@
 // sees a back in turn (a space closed partly by walls and floor). E is measured on 4 x 4 points of
 // the patch's unit square (Patch::sample), refined to 32 x 32 where the buried boundary crosses
 // the patch. For such a partly buried patch the refined grid is kept (one bit a cell, 128 bytes),
-// so that the form factors read E at their quadrature points, and the exposed part of a region a
-// partner's plane cuts off, from the same grid, with no probe rays per pair. Deterministic (fixed
-// points and probes).
+// so that the form factors (and the hierarchy's elements, on grids of their own) read E at their
+// quadrature points, and the exposed part of a region a partner's plane cuts off, from the same
+// grid: probes are cast per pair only for points in the cells beside the buried boundary.
+// Deterministic (fixed points and probes).
 //
 //   ExposureMap map(patches, caster, 4, 32);
 //   double a = map.area(i);                    // A'_i
