@@ -170,11 +170,6 @@ std::size_t ExposureMap::partly_buried() const {
   return k;
 }
 
-std::size_t ExposureMap::bytes() const {
-  return (area_.size() + fraction_.size()) * sizeof(double) +
-         first_word_.size() * sizeof(std::int64_t) + bits_.size() * sizeof(std::uint64_t);
-}
-
 std::vector<double> exposed_areas(const PatchSet& patches, const RayCaster& caster, int points,
                                   int refined_points) {
   return ExposureMap(patches, caster, points, refined_points).areas();

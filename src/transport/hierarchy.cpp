@@ -265,10 +265,10 @@ class HierarchyBuilder {
   }
   // Point form factors of a pair (false: the pair does not face).
   bool point_form_factors(std::int32_t a, std::int32_t b, ElementLink& l) const;
-  // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
-  // visible fractions.
   // Element e's exposure: its fraction A'_e / A_e, with its grid where it has one.
   PatchExposure exposure_of(std::int32_t e) const;
+  // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
+  // visible fractions.
   LinkVisibility probe(ElementLink& l, long long* rays) const;
   Outcome judge(const Candidate& c) const;
   std::uint64_t pair_key(std::int32_t a, std::int32_t b) const;
@@ -367,7 +367,7 @@ bool HierarchyBuilder::point_form_factors(std::int32_t a, std::int32_t b, Elemen
 PatchExposure HierarchyBuilder::exposure_of(std::int32_t e) const {
   const Element& el = el_[e];
   PatchExposure x(el.shape.area > 0.0 ? el.exposed / el.shape.area : 0.0);
-  if (x.fraction > 0.0 && !x.wholly() && static_cast<std::size_t>(e) < exposure_at_.size()) {
+  if (x.fraction > 0.0 && !x.wholly()) {
     const auto [map, index] = exposure_at_[e];
     if (map >= 0) {
       const PatchExposure grid = exposure_maps_[map][index];
@@ -516,6 +516,7 @@ void HierarchyBuilder::split_all(std::vector<std::int32_t>& elements, HierarchyP
   pass.splits += static_cast<long long>(elements.size());
   const auto before = static_cast<std::int32_t>(el_.size());
   for (std::int32_t e : elements) split(e);
+  exposure_at_.resize(el_.size(), {-1, -1});  // the new children: no grid unless measured below
   // Children of partly buried parents: their exposed area on 8 x 8 points, 16 x 16 where the
   // buried boundary crosses them (the roots had 4 x 4 and 32 x 32).
   PatchSet measure;
@@ -529,7 +530,6 @@ void HierarchyBuilder::split_all(std::vector<std::int32_t>& elements, HierarchyP
     const Stopwatch t0;
     const auto map = static_cast<std::int32_t>(exposure_maps_.size());
     exposure_maps_.emplace_back(measure, caster_, 8, 16);
-    exposure_at_.resize(el_.size(), {-1, -1});
     for (size_t k = 0; k < which.size(); ++k) {
       el_[which[k]].exposed = exposure_maps_.back().area(static_cast<PatchId>(k));
       exposure_at_[which[k]] = {map, static_cast<std::int32_t>(k)};

@@ -57,7 +57,6 @@ struct PatchExposure {
 
 class ExposureMap {
  public:
-  ExposureMap() = default;
   ExposureMap(const PatchSet& patches, const RayCaster& caster, int points, int refined_points);
 
   PatchExposure operator[](PatchId i) const;
@@ -66,7 +65,6 @@ class ExposureMap {
   std::vector<double> areas() const { return area_; }
   // Patches with a grid (partly buried).
   std::size_t partly_buried() const;
-  std::size_t bytes() const;
 
  private:
   std::vector<double> area_, fraction_;
