@@ -476,12 +476,15 @@ TEST(Hierarchy, FurnaceWithLobesIsEmissionOverOneMinusAlbedo) {
   const std::vector<std::string> mixed = {grey(a),   mirror(a), half_and_half(a),
                                           mirror(a), grey(a),   half_and_half(a)};
   const std::vector<std::string> mirrors(6, mirror(a));
-  for (const auto* faces : {&mirrors, &mixed}) {
+  // The box of mirrors is within 7e-4 at tolerance 0.02 already; the mixed box needs 0.003,
+  // whose build takes a third of the test (twenty times that under the sanitizers).
+  const std::vector<double> coarse = {0.05, 0.02}, fine = {0.05, 0.02, 0.003};
+  for (const auto& [faces, tolerances] : {std::pair{&mirrors, &coarse}, std::pair{&mixed, &fine}}) {
     // (A box whose reflected camera rays fall on no root edge: where they do, the transfer's
     // point pairs may miss the link they name, on the uniform mesh too.)
     const std::string json = test::closed_box_json(Vec3(1, 1.2, 0.9), 0.45, *faces, 1.0);
     double previous = INFINITY;
-    for (double tolerance : {0.05, 0.02, 0.003}) {
+    for (double tolerance : *tolerances) {
       auto sys = build(test::scene_from_json(json), hierarchical(tolerance));
       const auto& t = sys->transport;
       ASSERT_GT(t.num_links(), 0);
@@ -505,7 +508,7 @@ TEST(Hierarchy, FurnaceWithLobesIsEmissionOverOneMinusAlbedo) {
       }
       EXPECT_LT(error, previous) << "tolerance " << tolerance;
       previous = error;
-      if (tolerance > 0.003) continue;
+      if (tolerance != tolerances->back()) continue;
       EXPECT_LT(error, 5e-3) << "tolerance " << tolerance;
       Gather g = build_gather(*sys->world, t.layout(), GatherOptions{});
       Image img = apply_gather(g, r.u);
