@@ -19,8 +19,8 @@ using test::run_shell;
 CommandRun run(const std::string& args) { return test::run_cli(args); }
 
 // A final gather of few samples, for the runs whose subject is not the gather: the default's 64
-// cosine and 64 light samples per ray took five sixths of a Cornell box render, and ten times
-// longer under the sanitizers.
+// cosine and 64 light samples per ray took five sixths of a Cornell box render (10.6 s against
+// 1.9 s in Release), and six times as long under the sanitizers.
 const std::string kQuickGather =
     " --gather-samples 4 --light-samples 4 --near-samples 0 --pixel-grid 1";
 

@@ -222,9 +222,9 @@ TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
   fly_options.specular_on_the_fly = true;
   // Patch size 100 (240 patches): the answer is the same at any size, and the solve on the fly
   // at the scene's own size took 100 s under the sanitizers.
-  const std::string scene = test::scene_path("cornell-mirror-cube");
-  auto stored = build_system(World::load(scene, {.patch_size = 100}));
-  auto fly = build_system(World::load(scene, {.patch_size = 100}), fly_options);
+  const auto world = World::load(test::scene_path("cornell-mirror-cube"), {.patch_size = 100});
+  auto stored = build_system(world);
+  auto fly = build_system(world, fly_options);
   ASSERT_TRUE(fly->transport.on_the_fly());
   EXPECT_EQ(fly->transport.num_links(), stored->transport.num_links());
   EXPECT_EQ(fly->transport.nnz_specular(), 0);
