@@ -11,10 +11,15 @@ ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" --timeout 900
 
 if [ "${SANITIZE:-1}" = "0" ]; then exit 0; fi
 
-# RelWithDebInfo keeps the sanitizers' stack traces readable at a moderate slowdown.
+# RelWithDebInfo keeps the sanitizers' stack traces readable at a moderate slowdown. Clang, not
+# GCC: it builds the instrumented suite in about half the time, its instrumented code runs
+# faster, and the code is then compiled by both compilers on every run (docs/testing.md).
 asan=build/asan
-cmake -S . -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYRAD_SANITIZE=ON \
-  -DPOLYRAD_BUILD_BENCH=OFF >/dev/null
+# A build/asan configured with another compiler cannot be switched in place: start it afresh.
+cache="$asan/CMakeCache.txt"
+if [ -f "$cache" ] && ! grep -q '^CMAKE_CXX_COMPILER:.*clang++-14$' "$cache"; then rm -rf "$asan"; fi
+cmake -S . -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++-14 \
+  -DPOLYRAD_SANITIZE=ON -DPOLYRAD_BUILD_BENCH=OFF >/dev/null
 cmake --build "$asan" -j "$(nproc)" >&2
 # Leaks count as failures (no suppressions needed so far: OpenMP, Embree and OpenImageIO run
 # clean). Any report stops the test program, so ctest sees a failure.

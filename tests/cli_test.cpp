@@ -116,9 +116,8 @@ TEST(Cli, WorkThatCannotFitIsRefusedAtOnceWithTheEstimate) {
 }
 
 TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
-#ifdef __SANITIZE_ADDRESS__
-  GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";
-#endif
+  if (test::kUnderAddressSanitizer)
+    GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";
   // A specular scene (the mirror's transfer entries) and a diffuse one at a finer mesh (the form
   // factors), each with the stored patch gather: what the report says was estimated against
   // the process's peak resident set.

@@ -12,6 +12,30 @@
 
 namespace polyrad::test {
 
+// Whether this build runs under AddressSanitizer (GCC says so by a macro, Clang by a feature).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kUnderAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kUnderAddressSanitizer = true;
+#else
+inline constexpr bool kUnderAddressSanitizer = false;
+#endif
+
+// The steps of a refinement sequence that a test walks, coarse to fine: all of them, or under
+// the sanitizers only the first `keep`. The sanitizers look for memory errors and undefined
+// behaviour, which the coarse steps meet in the same code; the fine steps check convergence,
+// which the Release suite does, and under the sanitizers each took minutes. A test's checks on
+// its finest step name that step's value, so they run in Release only.
+template <typename T>
+std::vector<T> refinement_steps(std::vector<T> steps, std::size_t keep = 1) {
+  if (kUnderAddressSanitizer && steps.size() > keep) steps.resize(keep);
+  return steps;
+}
+#else
+inline constexpr bool kUnderAddressSanitizer = false;
+#endif
+
 // A fresh empty directory under the system's temporary folder, removed at exit.
 std::filesystem::path temp_dir();
 

@@ -30,7 +30,10 @@ std::map<std::string, Rgb> read_emission(const JsonValue& v, const Relighter& r)
   if (!v.is(JsonValue::Kind::kObject))
     throw InputError(v.where, "'emission' must be an object of NAME: [r, g, b]");
   std::map<std::string, Rgb> out;
-  for (const auto& [name, value] : v.object) {
+  for (const auto& entry : v.object) {
+    // Named, not a structured binding: Clang 14 (the sanitizer build) cannot capture one.
+    const std::string& name = entry.first;
+    const JsonValue& value = entry.second;
     const auto& lights = r.lights();
     if (std::none_of(lights.begin(), lights.end(), [&](const Light& l) { return l.name == name; }))
       throw InputError(value.where, "'" + name + "' is not a light of this operator (lights: " +
