@@ -70,7 +70,9 @@ TEST(Series, ErrorFallsWithOrderUnderTheAprioriBound) {
     Field exact = converged(*sys);
     const double e_norm = t.flux_norm(t.emission()), a = t.max_albedo();
     double previous = INFINITY;
-    for (int k = 0; k <= 40; ++k) {
+    // Order 40 in Release; the sanitizers stop at 10 (test::refinement_steps says why).
+    const int last = test::kUnderAddressSanitizer ? 10 : 40;
+    for (int k = 0; k <= last; ++k) {
       SeriesOperator q = solution_series(*sys, k, SeriesBasis::kObject);
       double error = t.flux_norm(product(q) - exact) / e_norm;
       double bound = std::pow(a, k + 1) / (1.0 - a);
