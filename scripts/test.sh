@@ -13,7 +13,7 @@ if [ "${SANITIZE:-1}" = "0" ]; then exit 0; fi
 
 # RelWithDebInfo keeps the sanitizers' stack traces readable at a moderate slowdown. Clang, not
 # GCC: it builds the instrumented suite in about half the time, its instrumented code runs
-# faster, and the code is then compiled by both compilers on every run (docs/testing.md).
+# about as fast, and the code is then compiled by both compilers on every run (docs/testing.md).
 asan=build/asan
 # A build/asan configured with another compiler cannot be switched in place: start it afresh.
 cache="$asan/CMakeCache.txt"

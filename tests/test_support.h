@@ -14,9 +14,13 @@ namespace polyrad::test {
 
 // Whether this build runs under AddressSanitizer (GCC says so by a macro, Clang by a feature).
 #if defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kUnderAddressSanitizer = true;
+#define POLYRAD_TEST_ASAN 1
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
+#define POLYRAD_TEST_ASAN 1
+#endif
+#endif
+#ifdef POLYRAD_TEST_ASAN
 inline constexpr bool kUnderAddressSanitizer = true;
 #else
 inline constexpr bool kUnderAddressSanitizer = false;
@@ -32,9 +36,6 @@ std::vector<T> refinement_steps(std::vector<T> steps, std::size_t keep = 1) {
   if (kUnderAddressSanitizer && steps.size() > keep) steps.resize(keep);
   return steps;
 }
-#else
-inline constexpr bool kUnderAddressSanitizer = false;
-#endif
 
 // A fresh empty directory under the system's temporary folder, removed at exit.
 std::filesystem::path temp_dir();
