@@ -153,7 +153,9 @@ TEST(Mesher, UnsampleInvertsSample) {
         const Vec3 y = p->sample(Vec2(s0, s1), &density);
         const Vec2 s = p->unsample(p == &warped ? y : y + 1e-3 * p->normal);
         EXPECT_NEAR(s.x(), s0, 1e-6) << p->corners << " " << s0 << " " << s1;
-        if (s0 > 0.0) EXPECT_NEAR(s.y(), s1, 1e-6) << p->corners << " " << s0 << " " << s1;
+        if (s0 > 0.0) {
+          EXPECT_NEAR(s.y(), s1, 1e-6) << p->corners << " " << s0 << " " << s1;
+        }
       }
   // Outside the patch: clamped to the square.
   const Vec2 s = trapezoid.unsample(Vec3(-1, 3, 0));
