@@ -136,6 +136,12 @@ void GatherFlags::add(CLI::App& app) {
                  "sample lands near the point it left (0: read the patch there)" +
                      final_only(final.near_samples))
       ->check(CLI::Range(0, 4096));
+  app.add_option("--reflector-samples", reflector_samples,
+                 "Final gather: points on the mirrors and glossy surfaces that send specular light, "
+                 "per hit with a diffuse part, weighted against the cosine samples (0: the cosine "
+                 "samples alone)" +
+                     final_only(final.reflector_samples))
+      ->check(CLI::Range(0, 4096));
   app.add_option("--near-distance", near_distance,
                  "Final gather: near means within this many diameters of the patch met, blended "
                  "out at twice the distance" +
@@ -151,6 +157,7 @@ GatherOptions GatherFlags::options() const {
   if (light_samples >= 0) o.light_samples = light_samples;
   if (gather_samples > 0) o.gather_samples = gather_samples;
   if (near_samples >= 0) o.near_samples = near_samples;
+  if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
   if (near_distance >= 0.0) o.near_distance = near_distance;
   return o;
 }

@@ -66,6 +66,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("emission_grid", o.emission_grid)
       .value("near_samples", o.near_samples)
       .value("near_distance", o.near_distance)
+      .value("reflector_samples", o.reflector_samples)
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
 }
@@ -90,6 +91,9 @@ GatherOptions read_gather_options(const JsonValue& v) {
     o.near_distance = r.number("near_distance");
     if (!(o.near_distance >= 0.0 && o.near_distance < 1e300))
       throw InputError(v.where, "the gather's near_distance is out of range");
+    // Written before the final gather drew points on the reflectors: it drew none.
+    if (r.has("reflector_samples"))
+      o.reflector_samples = static_cast<int>(r.integer("reflector_samples", 0, 4096));
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

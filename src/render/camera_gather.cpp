@@ -262,8 +262,9 @@ class GatherRows {
       : camera_(camera),
         options_(options),
         corners_(world.patches(), corner_weights(world, layout)),
-        context_{camera_, world.patches(), world.materials(), world.caster(),
-                 layout,  options_,        corners_,          world.lights()},
+        reflectors_(world.patches(), reflector_weights(world, layout, options)),
+        context_{camera_,  world.patches(), world.materials(), world.caster(), layout,
+                 options_, corners_,        world.lights(),    reflectors_},
         unknowns_(layout.size()),
         patches_(static_cast<std::int64_t>(world.patches().size())) {
     if (options.pixel_grid < 1 || options.pixel_grid > 16)
@@ -280,6 +281,8 @@ class GatherRows {
       throw InputError("final gather: near_samples must not be negative");
     if (!(options.near_distance >= 0.0))
       throw InputError("final gather: near_distance must not be negative");
+    if (options.reflector_samples < 0)
+      throw InputError("final gather: reflector_samples must not be negative");
   }
 
   int width() const { return camera_.width; }
@@ -350,6 +353,16 @@ class GatherRows {
     for (size_t p = 0; p < weight.size(); ++p) weight[p] = world.patches()[p].area;
     return weight;
   }
+  // The reflectors' weights for the final gather's reflector points: the areas of the patches
+  // that send specular links (none unless options ask for the points).
+  static std::vector<double> reflector_weights(const World& world, const UnknownLayout& layout,
+                                               const GatherOptions& options) {
+    std::vector<double> weight(world.patches().size(), 0.0);
+    if (options.kind != GatherKind::kFinal || options.reflector_samples == 0) return weight;
+    for (size_t p = 0; p < weight.size(); ++p)
+      if (layout.link_start[p + 1] > layout.link_start[p]) weight[p] = world.patches()[p].area;
+    return weight;
+  }
   // Appends one merged row, without the entries whose weights are all zero (a final-gather
   // shading ray whose path class no finer ray met is weighted zero).
   static void append_row(const std::vector<Term>& terms, Csr<Rgbf>& m) {
@@ -372,6 +385,7 @@ class GatherRows {
   const Camera camera_;
   const GatherOptions options_;
   const CornerAverages corners_;
+  const LightSampler reflectors_;
   const GatherContext context_;
   const Eigen::Index unknowns_;
   const std::int64_t patches_;

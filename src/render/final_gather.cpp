@@ -38,6 +38,8 @@ class FinalGatherer {
         lobe_side_(grid_side(o_.lobe_samples)),
         light_count_(c.lights.empty() ? 0 : o_.light_samples),
         light_side_(static_cast<int>(std::sqrt(static_cast<double>(light_count_)))),
+        reflector_count_(c.reflectors.empty() ? 0 : o_.reflector_samples),
+        reflector_side_(grid_side(std::max(1, reflector_count_))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
         near_count_(near_side_ * near_side_) {}
 
@@ -107,7 +109,7 @@ class FinalGatherer {
     Rgb weight;  // the mirrors' reflectances along the chain (gather() scales the whole ray)
     SubPixel sub;
   };
-  enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2 };
+  enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2, kReflectorPoints = 3 };
 
   // Sample s of a side x side grid on the unit square, jittered by (j1, j2), stratified over the
   // whole pixel: each cell of the grid is cut into pixel_grid^2 finer cells and each shading
@@ -272,6 +274,35 @@ class FinalGatherer {
     if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
     if (diffuse) rays += cosine_samples(sh, nd, rng, terms);
     if (lobe) rays += lobe_samples(sh, ns, rng, terms);
+    // After the others, so that their random draws are the same with or without these.
+    if (diffuse && reflector_count_ > 0) rays += reflector_points(sh, nd, rng, terms);
+    return rays;
+  }
+
+  // The specular light the reflectors send x, S_{j->i}, from points on them (drawn by area),
+  // weighted by the power heuristic against the nd cosine samples, which read the rest.
+  long long reflector_points(const Shading& sh, int nd, Rng& rng, PixelTerms& terms) const {
+    const int count = reflector_count_, side = reflector_side_;
+    const Vec3& n = sh.frame.n;
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const Vec2 u = side * side == count ? stratum(sh.sub, kReflectorPoints, s, side, j1, j2)
+                                          : Vec2((s + j1) / count, j2);
+      const LightSample r = c_.reflectors.sample(u);
+      const Vec3 to = r.point - sh.x;
+      const double dist2 = to.squaredNorm();
+      if (!(dist2 > 0.0) || !(r.area_pdf > 0.0)) continue;
+      const Vec3 wi = to / std::sqrt(dist2);
+      const double cos_x = wi.dot(n), cos_y = -wi.dot(c_.patches[r.patch].normal);
+      if (cos_x <= 0.0 || cos_y <= 0.0) continue;
+      ++rays;
+      if (c_.caster.segment_occluded(sh.x, sh.i, r.point, r.patch)) continue;
+      const double pdf = r.area_pdf * dist2 / cos_y;  // per unit solid angle
+      const double w = kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) /
+                       (pdf * count);
+      add_link(r.patch, sh.i, scaled(sh.weight * sh.m.diffuse, w), terms);
+    }
     return rays;
   }
 
@@ -329,7 +360,7 @@ class FinalGatherer {
       ++rays;
       const Hit h = c_.caster.intersect_from(sh.x, sh.i, dir);
       if (!h.valid() || !h.front) continue;
-      rays += add_arriving(sh, h, dir, w, wi.z() * kInvPi, count, rng, terms);
+      rays += add_arriving(sh, h, dir, w, wi.z() * kInvPi, count, rng, terms, true);
     }
     return rays;
   }
@@ -356,8 +387,9 @@ class FinalGatherer {
   // at a light, w times its emission with this strategy's weight against the light points
   // (pdf: this sample's solid-angle density, count: its strategy's sample count). Returns the
   // rays a near hit's second gather cast.
+  // With `cosine`, a reflector's link takes its weight against the reflector points.
   long long add_arriving(const Shading& sh, const Hit& h, const Vec3& dir, const Rgb& w, double pdf,
-                         int count, Rng& rng, PixelTerms& terms) const {
+                         int count, Rng& rng, PixelTerms& terms, bool cosine = false) const {
     const PatchId j = h.patch;
     if (c_.patches[j].emitter) {
       double mis = 1.0;
@@ -371,7 +403,14 @@ class FinalGatherer {
     }
     // The specular link toward i, and the diffuse part's reflected light: from the mesh,
     // B~ - E~, or, where y is near x, by a second gather at y (with a blend between the two).
-    add_link(j, sh.i, scaled(w, 1.0), terms);
+    double link_mis = 1.0;
+    if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0) {
+      const double dist2 = (h.position - sh.x).squaredNorm();
+      const double cos_y = -dir.dot(c_.patches[j].normal);
+      const double reflector_pdf = c_.reflectors.area_pdf(j, h.position) * dist2 / cos_y;
+      link_mis = power_heuristic(count * pdf, reflector_count_ * reflector_pdf);
+    }
+    add_link(j, sh.i, scaled(w, link_mis), terms);
     const double near = near_share(sh.x, h);
     long long rays = 0;
     if (near < 1.0) add_reflected(j, h.u, h.v, scaled(w, 1.0 - near), terms);
@@ -469,7 +508,8 @@ class FinalGatherer {
 
   const GatherContext& c_;
   const GatherOptions& o_;
-  const int diffuse_side_, lobe_side_, light_count_, light_side_, near_side_, near_count_;
+  const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_,
+      reflector_side_, near_side_, near_count_;
 };
 
 }  // namespace

@@ -67,6 +67,7 @@ struct GatherContext {
   const GatherOptions& options;
   const CornerAverages& corners;
   const LightSampler& lights;
+  const LightSampler& reflectors;  // the final gather's reflector points (by area)
 };
 
 // w times B at (u, v) of patch p, flat or smooth: the patch itself, its corners' averages, or

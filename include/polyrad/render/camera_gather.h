@@ -21,6 +21,8 @@
 // for the glossy part); those same samples read the reflected light where they land, and when
 // they land on a light, their weighted share of its Le. Emission is read once, in E. Near hits
 // gather the diffuse light there again; Le of what a pixel sees comes from a finer grid of rays.
+// With reflector_samples, points drawn by area on the patches that send specular links read
+// the diffuse part's S_{j->i} too, weighted by the power heuristic against the cosine samples.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
@@ -89,6 +91,11 @@ struct GatherOptions {
   // linearly to reading B at twice the distance.
   int near_samples = 4;
   double near_distance = 1.0;
+  // Final gather: points on the reflectors (patches whose material has a lobe and that send
+  // specular links) per hit with a diffuse part, for the specular light S_{j->i} they send it,
+  // weighted against the cosine samples (0: the cosine samples alone). A mirror's links are
+  // bright and change from patch to patch, which cosine samples alone read with much noise.
+  int reflector_samples = 0;
   std::uint64_t seed = 11;
 
   // The final gather with the counts the sample study chose (README, "The final gather"):
