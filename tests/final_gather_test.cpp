@@ -447,6 +447,21 @@ TEST(FinalGather, FileRecordsTheGatherAndOlderFilesReadAsThePatchGather) {
   SeriesOperator old = read_prt(test::write_file(dir, "old.prt", bytes));
   EXPECT_EQ(old.gather.kind, GatherKind::kPatch);
   EXPECT_EQ(old.gather.light_samples, 9);
+
+  // A final gather written before the reflector points: none drawn.
+  std::ifstream again(path, std::ios::binary);
+  bytes.assign(std::istreambuf_iterator<char>(again), std::istreambuf_iterator<char>());
+  const size_t key = bytes.find("\"reflector_samples\""), next = bytes.find("\"seed\"", key);
+  ASSERT_NE(key, std::string::npos);
+  ASSERT_LT(key, next);
+  std::fill(bytes.begin() + static_cast<std::ptrdiff_t>(key),
+            bytes.begin() + static_cast<std::ptrdiff_t>(next), ' ');
+  const std::uint64_t sum2 = checksum64(bytes.data(), bytes.size() - 8);
+  std::memcpy(&bytes[bytes.size() - 8], &sum2, 8);
+  SeriesOperator before = read_prt(test::write_file(dir, "before.prt", bytes));
+  EXPECT_EQ(before.gather.kind, GatherKind::kFinal);
+  EXPECT_EQ(before.gather.gather_samples, 25);
+  EXPECT_EQ(before.gather.reflector_samples, 0);
 }
 
 }  // namespace

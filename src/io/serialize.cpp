@@ -93,7 +93,7 @@ GatherOptions read_gather_options(const JsonValue& v) {
       throw InputError(v.where, "the gather's near_distance is out of range");
     // Written before the final gather drew points on the reflectors: it drew none.
     if (r.has("reflector_samples"))
-      o.reflector_samples = static_cast<int>(r.integer("reflector_samples", 0, 4096));
+      o.reflector_samples = static_cast<int>(r.integer("reflector_samples", 0, 65536));
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

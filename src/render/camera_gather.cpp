@@ -358,7 +358,7 @@ class GatherRows {
   static std::vector<double> reflector_weights(const World& world, const UnknownLayout& layout,
                                                const GatherOptions& options) {
     std::vector<double> weight(world.patches().size(), 0.0);
-    if (options.kind != GatherKind::kFinal || options.reflector_samples == 0) return weight;
+    if (options.kind != GatherKind::kFinal || options.reflector_samples <= 0) return weight;
     for (size_t p = 0; p < weight.size(); ++p)
       if (layout.link_start[p + 1] > layout.link_start[p]) weight[p] = world.patches()[p].area;
     return weight;

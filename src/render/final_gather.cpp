@@ -15,6 +15,8 @@
 // strategies (Veach's thesis, eq. 9.13, with the sample counts): for the diffuse part, light
 // points against cosine samples; for the glossy part, light points against lobe samples. Each
 // part is then estimated without bias on its own, and the weights of a direction sum to one.
+// With reflector_samples, the diffuse part's S_{j->i} has a pair of its own: points drawn by
+// area on the patches that send specular links against the cosine samples.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -109,6 +111,7 @@ class FinalGatherer {
     Rgb weight;  // the mirrors' reflectances along the chain (gather() scales the whole ray)
     SubPixel sub;
   };
+  // At most four: stratum() keys its hash by pixel * 4 + strategy.
   enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2, kReflectorPoints = 3 };
 
   // Sample s of a side x side grid on the unit square, jittered by (j1, j2), stratified over the
@@ -274,7 +277,8 @@ class FinalGatherer {
     if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
     if (diffuse) rays += cosine_samples(sh, nd, rng, terms);
     if (lobe) rays += lobe_samples(sh, ns, rng, terms);
-    // After the others, so that their random draws are the same with or without these.
+    // After this hit's other samples, so that they draw the same numbers with or without these
+    // (a mirror chain's later hits do not: the chain shares one stream).
     if (diffuse && reflector_count_ > 0) rays += reflector_points(sh, nd, rng, terms);
     return rays;
   }
@@ -386,8 +390,8 @@ class FinalGatherer {
   // A BRDF sample from x along dir met h: w times the reflected radiance there toward i, and,
   // at a light, w times its emission with this strategy's weight against the light points
   // (pdf: this sample's solid-angle density, count: its strategy's sample count). Returns the
-  // rays a near hit's second gather cast.
-  // With `cosine`, a reflector's link takes its weight against the reflector points.
+  // rays a near hit's second gather cast. A cosine sample (`cosine`) that meets a reflector
+  // weights its link against the reflector points.
   long long add_arriving(const Shading& sh, const Hit& h, const Vec3& dir, const Rgb& w, double pdf,
                          int count, Rng& rng, PixelTerms& terms, bool cosine = false) const {
     const PatchId j = h.patch;

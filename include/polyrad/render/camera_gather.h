@@ -33,8 +33,8 @@
 //
 // Cost: the patch gather casts pixels x sub-pixel rays x (1 + lobe samples + light samples)
 // rays. The final gather casts per pixel emission_grid^2 rays, then per shading ray and hit
-// light samples + gather samples (diffuse part) + lobe samples (glossy part), and 2
-// near_samples more where a sample lands near: about 760 rays a pixel on cornell-box with the
+// light samples + gather samples (diffuse part, + reflector samples when asked) + lobe samples
+// (glossy part), and 2 near_samples more where a sample lands near: about 760 rays a pixel on cornell-box with the
 // defaults. Memory 16 bytes per entry after merging each pixel's equal columns (a final gather:
 // about 190 entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather
 // (defer_gather) is never stored whole, its rows are built block by block where they are used.
