@@ -391,18 +391,26 @@ TEST(Cli, GatherFlagPicksTheKindAndTheReportSaysWhich) {
   auto dir = test::temp_dir();
   for (const char* kind : {"", "final", "patch"}) {
     const std::string img = (dir / "f.pfm").string(), rep = (dir / "f.json").string();
-    const std::string flag = *kind ? std::string(" --gather ") + kind : std::string();
+    const bool points = std::string(kind) == "final";  // and points on the reflectors (none here)
+    const std::string flag = (*kind ? std::string(" --gather ") + kind : std::string()) +
+                             (points ? " --reflector-samples 4" : "");
     CommandRun r =
         run("render " + test::scene_path("furnace") + " -o " + img + " --report " + rep + flag);
     ASSERT_EQ(r.code, 0) << r.err;
     const JsonValue report = test::read_json(rep);
     ASSERT_NE(report.find("gather"), nullptr);
-    EXPECT_EQ(report.find("gather")->find("options")->find("kind")->string, *kind ? kind : "final");
+    const JsonValue* options = report.find("gather")->find("options");
+    EXPECT_EQ(options->find("kind")->string, *kind ? kind : "final");
+    EXPECT_EQ(options->find("reflector_samples")->number, points ? 4.0 : 0.0);
     Image image = read_image(img);
     for (float v : image.rgb) ASSERT_NEAR(v, 2.0, 0.04);
   }
   EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
                 " --gather photon")
+                .code,
+            2);
+  EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
+                " --reflector-samples -1")
                 .code,
             2);
 }
