@@ -415,6 +415,22 @@ TEST(FinalGather, IterativeRenderAndRelightAgreeToTheSeriesTolerance) {
 
 // ---- the file ----------------------------------------------------------------------------------
 
+// The operator file at `path` as an older polyrad wrote it: its header without the keys from
+// `first` up to the next `next` (blanked to spaces, so no offset moves; checksum redone), read.
+void read_without(const std::string& path, const char* first, const char* next,
+                  SeriesOperator& out) {
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t from = bytes.find(first), to = bytes.find(next, from);
+  ASSERT_NE(from, std::string::npos);
+  ASSERT_LT(from, to);
+  std::fill(bytes.begin() + static_cast<std::ptrdiff_t>(from),
+            bytes.begin() + static_cast<std::ptrdiff_t>(to), ' ');
+  const std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
+  std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
+  out = read_prt(test::write_file(std::filesystem::path(path).parent_path(), "older.prt", bytes));
+}
+
 TEST(FinalGather, FileRecordsTheGatherAndOlderFilesReadAsThePatchGather) {
   auto sys = build_system(World::load(test::scene_path("cornell-box")));
   SeriesOperator q = precompute(*sys, nullptr, SeriesOutput::kSolution, 3);
@@ -434,31 +450,15 @@ TEST(FinalGather, FileRecordsTheGatherAndOlderFilesReadAsThePatchGather) {
   EXPECT_EQ(back.gather.reflector_samples, 16);
 
   // The same file as written before the final gather existed: its header without the gather's
-  // kind and final-gather counts (blanked to spaces, so no offset moves), checksum redone.
-  std::ifstream in(path, std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t from = bytes.find("\"kind\""), to = bytes.find("\"diffuse\"");
-  ASSERT_NE(from, std::string::npos);
-  ASSERT_LT(from, to);
-  std::fill(bytes.begin() + static_cast<std::ptrdiff_t>(from),
-            bytes.begin() + static_cast<std::ptrdiff_t>(to), ' ');
-  const std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
-  std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
-  SeriesOperator old = read_prt(test::write_file(dir, "old.prt", bytes));
+  // kind and final-gather counts.
+  SeriesOperator old;
+  ASSERT_NO_FATAL_FAILURE(read_without(path, "\"kind\"", "\"diffuse\"", old));
   EXPECT_EQ(old.gather.kind, GatherKind::kPatch);
   EXPECT_EQ(old.gather.light_samples, 9);
 
   // A final gather written before the reflector points: none drawn.
-  std::ifstream again(path, std::ios::binary);
-  bytes.assign(std::istreambuf_iterator<char>(again), std::istreambuf_iterator<char>());
-  const size_t key = bytes.find("\"reflector_samples\""), next = bytes.find("\"seed\"", key);
-  ASSERT_NE(key, std::string::npos);
-  ASSERT_LT(key, next);
-  std::fill(bytes.begin() + static_cast<std::ptrdiff_t>(key),
-            bytes.begin() + static_cast<std::ptrdiff_t>(next), ' ');
-  const std::uint64_t sum2 = checksum64(bytes.data(), bytes.size() - 8);
-  std::memcpy(&bytes[bytes.size() - 8], &sum2, 8);
-  SeriesOperator before = read_prt(test::write_file(dir, "before.prt", bytes));
+  SeriesOperator before;
+  ASSERT_NO_FATAL_FAILURE(read_without(path, "\"reflector_samples\"", "\"seed\"", before));
   EXPECT_EQ(before.gather.kind, GatherKind::kFinal);
   EXPECT_EQ(before.gather.gather_samples, 25);
   EXPECT_EQ(before.gather.reflector_samples, 0);

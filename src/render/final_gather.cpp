@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include "gather_terms.h"
 #include "polyrad/util/sampling.h"
@@ -41,7 +42,7 @@ class FinalGatherer {
         light_count_(c.lights.empty() ? 0 : o_.light_samples),
         light_side_(static_cast<int>(std::sqrt(static_cast<double>(light_count_)))),
         reflector_count_(c.reflectors.empty() ? 0 : o_.reflector_samples),
-        reflector_side_(grid_side(std::max(1, reflector_count_))),
+        reflector_side_(static_cast<int>(std::sqrt(static_cast<double>(reflector_count_)))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
         near_count_(near_side_ * near_side_) {}
 
@@ -129,6 +130,37 @@ class FinalGatherer {
     const int f = static_cast<int>((static_cast<std::uint64_t>(sub.index) + h % cells) % cells);
     const double fine = static_cast<double>(side) * n;
     return Vec2((cx * n + f % n + j1) / fine, (cy * n + f / n + j2) / fine);
+  }
+  // Sample s of count points drawn on a sampler's patches: a side x side grid (stratum) when
+  // count is a square, else count strata along the first coordinate (which picks the patch).
+  Vec2 point_stratum(const SubPixel& sub, int strategy, int s, int count, int side, double j1,
+                     double j2) const {
+    return side * side == count ? stratum(sub, strategy, s, side, j1, j2)
+                                : Vec2((s + j1) / count, j2);
+  }
+
+  // A point drawn on a sampler's patches (LightSampler), seen from x of normal n: its direction,
+  // the cosine at x and the density of drawing it per unit solid angle; none where x or the
+  // point faces away from the other.
+  struct SeenPoint {
+    Vec3 wi;
+    double cos_x, pdf;
+  };
+  std::optional<SeenPoint> seen_from(const Vec3& x, const Vec3& n, const LightSample& p) const {
+    const Vec3 to = p.point - x;
+    const double dist2 = to.squaredNorm();
+    if (!(dist2 > 0.0) || !(p.area_pdf > 0.0)) return std::nullopt;
+    const Vec3 wi = to / std::sqrt(dist2);
+    const double cos_x = wi.dot(n), cos_y = -wi.dot(c_.patches[p.patch].normal);
+    if (cos_x <= 0.0 || cos_y <= 0.0) return std::nullopt;
+    return SeenPoint{wi, cos_x, p.area_pdf * dist2 / cos_y};
+  }
+  // The density per unit solid angle with which `sampler` draws the point h that a BRDF sample
+  // from x along dir met (the other strategy's density in a power heuristic).
+  double solid_angle_pdf(const LightSampler& sampler, const Hit& h, const Vec3& x,
+                         const Vec3& dir) const {
+    const double cos_y = -dir.dot(c_.patches[h.patch].normal);
+    return sampler.area_pdf(h.patch, h.position) * (h.position - x).squaredNorm() / cos_y;
   }
 
   static constexpr int kMaxShadingRays = 16 * 16;  // pixel_grid <= 16
@@ -286,23 +318,17 @@ class FinalGatherer {
   // The specular light the reflectors send x, S_{j->i}, from points on them (drawn by area),
   // weighted by the power heuristic against the nd cosine samples, which read the rest.
   long long reflector_points(const Shading& sh, int nd, Rng& rng, PixelTerms& terms) const {
-    const int count = reflector_count_, side = reflector_side_;
-    const Vec3& n = sh.frame.n;
+    const int count = reflector_count_;
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
       const double j1 = rng.uniform32(), j2 = rng.uniform32();
-      const Vec2 u = side * side == count ? stratum(sh.sub, kReflectorPoints, s, side, j1, j2)
-                                          : Vec2((s + j1) / count, j2);
-      const LightSample r = c_.reflectors.sample(u);
-      const Vec3 to = r.point - sh.x;
-      const double dist2 = to.squaredNorm();
-      if (!(dist2 > 0.0) || !(r.area_pdf > 0.0)) continue;
-      const Vec3 wi = to / std::sqrt(dist2);
-      const double cos_x = wi.dot(n), cos_y = -wi.dot(c_.patches[r.patch].normal);
-      if (cos_x <= 0.0 || cos_y <= 0.0) continue;
+      const LightSample r = c_.reflectors.sample(
+          point_stratum(sh.sub, kReflectorPoints, s, count, reflector_side_, j1, j2));
+      const auto seen = seen_from(sh.x, sh.frame.n, r);
+      if (!seen) continue;
       ++rays;
       if (c_.caster.segment_occluded(sh.x, sh.i, r.point, r.patch)) continue;
-      const double pdf = r.area_pdf * dist2 / cos_y;  // per unit solid angle
+      const double cos_x = seen->cos_x, pdf = seen->pdf;
       const double w = kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) /
                        (pdf * count);
       add_link(r.patch, sh.i, scaled(sh.weight * sh.m.diffuse, w), terms);
@@ -315,29 +341,21 @@ class FinalGatherer {
   long long light_samples(const Shading& sh, bool diffuse, bool lobe, int nd, int ns, Rng& rng,
                           PixelTerms& terms) const {
     const int count = light_count_;
-    const Vec3& n = sh.frame.n;
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
-      // A side x side grid when count is a square, else count strata along the first
-      // coordinate (which picks the light patch).
       const double j1 = rng.uniform32(), j2 = rng.uniform32();
-      const Vec2 u = light_side_ * light_side_ == count
-                         ? stratum(sh.sub, kLightPoints, s, light_side_, j1, j2)
-                         : Vec2((s + j1) / count, j2);
-      const LightSample l = c_.lights.sample(u);
-      const Vec3 to = l.point - sh.x;
-      const double dist2 = to.squaredNorm();
-      if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;
-      const Vec3 wi = to / std::sqrt(dist2);
-      const double cos_x = wi.dot(n), cos_y = -wi.dot(c_.patches[l.patch].normal);
-      if (cos_x <= 0.0 || cos_y <= 0.0) continue;
-      const Vec3 wi_local = sh.frame.to_local(wi);
+      const LightSample l =
+          c_.lights.sample(point_stratum(sh.sub, kLightPoints, s, count, light_side_, j1, j2));
+      const auto seen = seen_from(sh.x, sh.frame.n, l);
+      if (!seen) continue;
+      const double cos_x = seen->cos_x;
+      const Vec3 wi_local = sh.frame.to_local(seen->wi);
       const double lobe_value = lobe ? sh.m.lobe_eval(wi_local, sh.wo) : 0.0;
       if (!diffuse && !(lobe_value > 0.0)) continue;
       ++rays;
       if (c_.caster.segment_occluded(sh.x, sh.i, l.point, l.patch)) continue;
-      const double light_pdf = l.area_pdf * dist2 / cos_y;  // per unit solid angle
-      Rgb f = Rgb::Zero();                                  // f cos_x times each part's weight
+      const double light_pdf = seen->pdf;
+      Rgb f = Rgb::Zero();  // f cos_x times each part's weight
       if (diffuse)
         f += sh.m.diffuse *
              (kInvPi * cos_x * power_heuristic(count * light_pdf, nd * cos_x * kInvPi));
@@ -397,23 +415,17 @@ class FinalGatherer {
     const PatchId j = h.patch;
     if (c_.patches[j].emitter) {
       double mis = 1.0;
-      if (light_count_ > 0) {
-        const double dist2 = (h.position - sh.x).squaredNorm();
-        const double cos_y = -dir.dot(c_.patches[j].normal);
-        const double light_pdf = c_.lights.area_pdf(j, h.position) * dist2 / cos_y;
-        mis = power_heuristic(count * pdf, light_count_ * light_pdf);
-      }
+      if (light_count_ > 0)
+        mis = power_heuristic(count * pdf,
+                              light_count_ * solid_angle_pdf(c_.lights, h, sh.x, dir));
       if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
     }
     // The specular link toward i, and the diffuse part's reflected light: from the mesh,
     // B~ - E~, or, where y is near x, by a second gather at y (with a blend between the two).
     double link_mis = 1.0;
-    if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0) {
-      const double dist2 = (h.position - sh.x).squaredNorm();
-      const double cos_y = -dir.dot(c_.patches[j].normal);
-      const double reflector_pdf = c_.reflectors.area_pdf(j, h.position) * dist2 / cos_y;
-      link_mis = power_heuristic(count * pdf, reflector_count_ * reflector_pdf);
-    }
+    if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0)
+      link_mis = power_heuristic(count * pdf,
+                                 reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
     add_link(j, sh.i, scaled(w, link_mis), terms);
     const double near = near_share(sh.x, h);
     long long rays = 0;
@@ -461,15 +473,11 @@ class FinalGatherer {
     for (int s = 0; s < lights; ++s) {
       const double j1 = rng.uniform32(), j2 = rng.uniform32();
       const LightSample l = c_.lights.sample(Vec2((s % side + j1) / side, (s / side + j2) / side));
-      const Vec3 to = l.point - y;
-      const double dist2 = to.squaredNorm();
-      if (!(dist2 > 0.0) || !(l.area_pdf > 0.0)) continue;
-      const Vec3 wi = to / std::sqrt(dist2);
-      const double cos_y = wi.dot(pj.normal), cos_l = -wi.dot(c_.patches[l.patch].normal);
-      if (cos_y <= 0.0 || cos_l <= 0.0) continue;
+      const auto seen = seen_from(y, pj.normal, l);
+      if (!seen) continue;
       ++rays;
       if (c_.caster.segment_occluded(y, j, l.point, l.patch)) continue;
-      const double light_pdf = l.area_pdf * dist2 / cos_l;
+      const double cos_y = seen->cos_x, light_pdf = seen->pdf;
       const double f = kInvPi * cos_y * power_heuristic(lights * light_pdf, count * cos_y * kInvPi);
       terms.emission.push_back({l.patch, scaled(wd, f / (light_pdf * lights))});
     }
@@ -486,12 +494,9 @@ class FinalGatherer {
       const PatchId k = z.patch;
       if (c_.patches[k].emitter) {
         double mis = 1.0;
-        if (lights > 0) {
-          const double cos_l = -dir.dot(c_.patches[k].normal);
-          const double light_pdf =
-              c_.lights.area_pdf(k, z.position) * (z.position - y).squaredNorm() / cos_l;
-          mis = power_heuristic(count * wi.z() * kInvPi, lights * light_pdf);
-        }
+        if (lights > 0)
+          mis = power_heuristic(count * wi.z() * kInvPi,
+                                lights * solid_angle_pdf(c_.lights, z, y, dir));
         if (mis > 0.0) terms.emission.push_back({k, scaled(wz, mis)});
       }
       add_reflected(k, z.u, z.v, scaled(wz, 1.0), terms);
