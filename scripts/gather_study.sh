@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The final gather's sample counts against error and time: one `render` per setting of
-# --gather-samples / --light-samples / --near-samples (and the patch gather for scale) on each
+# --gather-samples / --light-samples / --near-samples [/ --reflector-samples; the default when
+# left out] (and the patch gather for scale) on each
 # scene, compared with a path-traced reference; a table, a CSV and a chart of relative RMSE
 # against the render's CPU seconds, each point labelled with its counts.
 #
@@ -10,7 +11,7 @@
 # References are DIR/../accuracy/SCENE-pt4096.exr when scripts/accuracy_study.sh made them, else
 # rendered into DIR at 4096 spp (about 7 minutes a scene on two cores).
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh); $SETTINGS
-# overrides the settings ("gather/light/near ...", default the nine below).
+# overrides the settings ("gather/light/near[/reflector] ...", default the eleven below).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="${1:-out/gather}"
@@ -21,7 +22,7 @@ if [ -z "${POLYRAD:-}" ]; then
   "$root/scripts/deps.sh"
   POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
 fi
-settings="${SETTINGS:-16/64/4 36/64/4 64/64/4 100/64/4 64/16/4 64/256/4 64/64/0 64/64/16 patch}"
+settings="${SETTINGS:-16/64/4 36/64/4 64/64/4 100/64/4 64/16/4 64/256/4 64/64/0 64/64/16 64/64/4/0 64/64/4/256 patch}"
 mkdir -p "$out"
 /usr/bin/python3 - "$POLYRAD" "$root" "$out" "$settings" "${scenes[@]}" <<'PY'
 import json, os, resource, subprocess, sys
@@ -50,9 +51,10 @@ for scene in scenes:
                             "-o", ref], check=True)
     for s in settings:
         tag = s.replace("/", "-")
+        counts = s.split("/")
         flags = ["--gather", "patch"] if s == "patch" else \
-            ["--gather", "final", "--gather-samples", s.split("/")[0], "--light-samples", s.split("/")[1],
-             "--near-samples", s.split("/")[2]]
+            ["--gather", "final", "--gather-samples", counts[0], "--light-samples", counts[1],
+             "--near-samples", counts[2]] + (["--reflector-samples", counts[3]] if len(counts) > 3 else [])
         img, rep, cmp = (f"{out}/{scene}-{tag}.exr", f"{out}/{scene}-{tag}.json", f"{out}/{scene}-{tag}-cmp.json")
         cpu = cpu_seconds([polyrad, "--quiet", "render", file, *flags, "-o", img, "--report", rep])
         subprocess.run([polyrad, "--quiet", "compare", img, ref, "--scene", file, "--report", cmp],
@@ -70,7 +72,7 @@ with open(f"{out}/gather.csv", "w") as f:
     for x in rows:
         f.write(f"{x['scene']},{x['setting']},{x['cpu']:.2f},{x['wall']:.2f},{x['rmse']:.4f},{x['l1']:.4f},{x['entries']}\n")
 with open(f"{out}/gather.md", "w") as f:
-    f.write("| scene | gather / light / near samples | CPU s | wall s | relative RMSE | relative L1 | largest region difference |\n")
+    f.write("| scene | gather / light / near [/ reflector] samples | CPU s | wall s | relative RMSE | relative L1 | largest region difference |\n")
     f.write("|---|---|---|---|---|---|---|\n")
     for x in rows:
         f.write(f"| {x['scene']} | {x['setting']} | {x['cpu']:.1f} | {x['wall']:.1f} | {x['rmse']:.3f} | "
@@ -87,7 +89,7 @@ ax.set_xscale("log")
 ax.set_yscale("log")
 ax.set_xlabel("CPU seconds of the whole render (two threads)")
 ax.set_ylabel("relative RMSE against 4096 spp")
-ax.set_title("Final gather: gather / light / near samples against error and time")
+ax.set_title("Final gather: gather / light / near [/ reflector] samples against error and time")
 ax.grid(True, which="both", alpha=0.3)
 ax.legend()
 fig.tight_layout()

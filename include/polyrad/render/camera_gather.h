@@ -100,13 +100,16 @@ struct GatherOptions {
 
   // The final gather with the counts the sample study chose (README, "The final gather"):
   // flat reads (each patch's mean keeps the flux a sample reads, where the smooth interpolation
-  // moves light off bright patches), 64 cosine samples and 64 light points per sub-pixel ray.
+  // moves light off bright patches), 64 cosine samples and 64 light points per sub-pixel ray,
+  // and 64 points on the reflectors (a sixth less error on the mirror cube for an eighth more
+  // gather time; nothing drawn where no patch sends specular links).
   static GatherOptions final_gather() {
     GatherOptions o;
     o.kind = GatherKind::kFinal;
     o.diffuse = DiffuseMode::kFlat;
     o.gather_samples = 64;
     o.light_samples = 64;
+    o.reflector_samples = 64;
     return o;
   }
 };
