@@ -21,8 +21,9 @@
 // for the glossy part); those same samples read the reflected light where they land, and when
 // they land on a light, their weighted share of its Le. Emission is read once, in E. Near hits
 // gather the diffuse light there again; Le of what a pixel sees comes from a finer grid of rays.
-// With reflector_samples, points drawn by area on the patches that send specular links read
-// the diffuse part's S_{j->i} too, weighted by the power heuristic against the cosine samples.
+// With reflector_samples (64 in final_gather()), points drawn by area on the patches that send
+// specular links read the diffuse part's S_{j->i} too, weighted by the power heuristic against
+// the cosine samples.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
@@ -33,11 +34,12 @@
 //
 // Cost: the patch gather casts pixels x sub-pixel rays x (1 + lobe samples + light samples)
 // rays. The final gather casts per pixel emission_grid^2 rays, then per shading ray and hit
-// light samples + gather samples (diffuse part, + reflector samples when asked) + lobe samples
-// (glossy part), and 2 near_samples more where a sample lands near: about 760 rays a pixel on cornell-box with the
-// defaults. Memory 16 bytes per entry after merging each pixel's equal columns (a final gather:
-// about 190 entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather
-// (defer_gather) is never stored whole, its rows are built block by block where they are used.
+// light samples + gather samples (diffuse part, + reflector samples where a scene has them)
+// + lobe samples (glossy part), and 2 near_samples more where a sample lands near: about 760
+// rays a pixel on cornell-box with the defaults. Memory 16 bytes per entry after merging each
+// pixel's equal columns (a final gather: about 190 entries a pixel on cornell-box, 12 million
+// for 256 x 256); a deferred gather (defer_gather) is never stored whole, its rows are built
+// block by block where they are used.
 #pragma once
 
 #include <array>
