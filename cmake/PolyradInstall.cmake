@@ -2,11 +2,13 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-install(TARGETS polyrad polyrad_warnings polyrad_oiio EXPORT polyradTargets
+install(TARGETS polyrad polyrad_warnings EXPORT polyradTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(TARGETS polyrad_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# Where io/image_codec.cpp looks for it: ../lib/polyrad from the executable, or the prefix's.
+install(TARGETS polyrad_image_codec LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/polyrad)
 # Not the relighting service's headers: its library (src/serve) is not installed.
 install(DIRECTORY include/polyrad DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} PATTERN serve EXCLUDE)
 install(EXPORT polyradTargets NAMESPACE polyrad::

@@ -1,6 +1,7 @@
 // The command line as a user meets it: exit codes, one-line errors, no partial outputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -471,6 +472,50 @@ TEST(Cli, FullDiskIsReportedAndLeavesNothing) {
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
   EXPECT_TRUE(files_in(dir).empty() || files_in(dir) == std::vector<std::string>{"stderr.txt"});
+}
+
+}  // namespace
+}  // namespace polyrad
+
+namespace polyrad {
+namespace {
+
+// OpenImageIO lives in a module loaded for the first .exr or .png (io/image_codec.h): the
+// program links none of its libraries, a run that writes only .pfm needs no module, and one that
+// writes an .exr without it fails with where it looked, leaving nothing behind.
+TEST(Cli, OnlyExrAndPngNeedTheImageCodecModule) {
+  const CommandRun libraries = run_shell("ldd " + std::string(POLYRAD_CLI));
+  ASSERT_EQ(libraries.code, 0) << libraries.err;
+  EXPECT_NE(libraries.out.find("libembree3"), std::string::npos) << libraries.out;
+  EXPECT_EQ(libraries.out.find("OpenImageIO"), std::string::npos) << libraries.out;
+
+  auto dir = test::temp_dir();
+  Image a(4, 3), b(4, 3);
+  for (size_t k = 0; k < a.rgb.size(); ++k) a.rgb[k] = 0.5f + 0.01f * k, b.rgb[k] = 0.5f;
+  const std::string pa = (dir / "a.pfm").string(), pb = (dir / "b.pfm").string();
+  write_image(a, pa);
+  write_image(b, pb);
+  const std::string missing = (dir / "nowhere" / "libcodec.so").string();
+  const std::string without = "POLYRAD_IMAGE_CODEC=" + missing + " " + POLYRAD_CLI +
+                              " --quiet compare " + pa + " " + pb + " --heatmap ";
+  const CommandRun pfm = run_shell(without + (dir / "h.pfm").string());
+  EXPECT_EQ(pfm.code, 0) << pfm.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "h.pfm"));
+
+  const CommandRun exr = run_shell(without + (dir / "h.exr").string());
+  EXPECT_EQ(exr.code, 1) << exr.err;
+  EXPECT_NE(exr.err.find("image codec module"), std::string::npos) << exr.err;
+  EXPECT_NE(exr.err.find(missing + ": not there"), std::string::npos) << exr.err;
+  std::vector<std::string> names = files_in(dir);
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"a.pfm", "b.pfm", "h.pfm"}));
+
+  // Found by itself, beside the program: the same command writes the .exr, which reads back.
+  const CommandRun found = run("compare " + pa + " " + pb + " --heatmap " + (dir / "h.exr").string());
+  ASSERT_EQ(found.code, 0) << found.err;
+  const Image heat = read_image((dir / "h.exr").string());
+  EXPECT_EQ(heat.width, a.width);
+  EXPECT_EQ(heat.height, a.height);
 }
 
 }  // namespace

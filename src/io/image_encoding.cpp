@@ -1,9 +1,6 @@
 // Images encoded in memory (io/image_encoding.h).
 #include "polyrad/io/image_encoding.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -12,13 +9,12 @@
 #include <stdexcept>
 #include <vector>
 
+#include "polyrad/io/image_codec.h"
 #include "polyrad/io/image_io.h"
 
 namespace polyrad {
 
 namespace {
-
-constexpr int kPngFilterUp = 0x20;  // libpng's PNG_FILTER_UP, which OpenImageIO passes on
 
 int reference_value(double x) { return to_srgb8(Rgb(x, x, x), 1.0)[0]; }
 
@@ -76,20 +72,12 @@ std::string tonemap_srgb8(const Image& image, double exposure) {
 
 std::string encode_png(const Image& image, double exposure, PngEncoding encoding) {
   const std::string pixels = tonemap_srgb8(image, exposure);
-  std::vector<unsigned char> buffer;
-  OIIO::Filesystem::IOVecOutput proxy(buffer);
-  auto out = OIIO::ImageOutput::create("png");
-  if (!out || !out->supports("ioproxy"))
-    throw std::runtime_error("OpenImageIO cannot write PNG to memory: " + OIIO::geterror());
-  OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-  if (encoding == PngEncoding::kFast) {
-    spec.attribute("png:compressionLevel", 1);
-    spec.attribute("png:filter", kPngFilterUp);
-  }
-  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) ||
-      !out->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !out->close())
-    throw std::runtime_error("cannot encode the PNG: " + out->geterror());
-  return std::string(buffer.begin(), buffer.end());
+  std::string bytes, error;
+  if (!image_codec().encode_png(image.width, image.height,
+                                reinterpret_cast<const unsigned char*>(pixels.data()),
+                                encoding == PngEncoding::kFast, &bytes, &error))
+    throw std::runtime_error("cannot encode the PNG: " + error);
+  return bytes;
 }
 
 std::string encode_pfm(const Image& image) {

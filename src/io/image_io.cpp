@@ -1,7 +1,6 @@
-// Image files (io/image_io.h): OpenEXR and PNG through OpenImageIO, PFM written directly.
+// Image files (io/image_io.h): OpenEXR and PNG through the codec module (io/image_codec.h), PFM
+// written and read here.
 #include "polyrad/io/image_io.h"
-
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +10,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "polyrad/io/image_codec.h"
 #include "polyrad/util/error.h"
 #include "polyrad/util/files.h"
 
@@ -62,25 +62,18 @@ Image read_pfm(const std::string& path) {
   return img;
 }
 
-void write_oiio(const Image& image, const std::string& path, bool png, double exposure) {
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw std::runtime_error("cannot create " + path + ": " + OIIO::geterror());
-  OIIO::ImageSpec spec(image.width, image.height, 3,
-                       png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::HALF);
-  if (!out->open(path, spec))
-    throw std::runtime_error("cannot create " + path + ": " + out->geterror());
-  bool ok;
+void write_coded(const Image& image, const std::string& path, bool png, double exposure) {
+  std::vector<unsigned char> bytes;
   if (png) {
-    std::vector<unsigned char> bytes(image.rgb.size());
+    bytes.resize(image.rgb.size());
     for (size_t k = 0; k < image.rgb.size(); ++k)
       bytes[k] =
           static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[k] * exposure)));
-    ok = out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
-  } else {
-    ok = out->write_image(OIIO::TypeDesc::FLOAT, image.rgb.data());
   }
-  if (!ok) throw std::runtime_error("cannot write " + path + ": " + out->geterror());
-  if (!out->close()) throw std::runtime_error("cannot write " + path + ": " + out->geterror());
+  const void* pixels = png ? static_cast<const void*>(bytes.data()) : image.rgb.data();
+  std::string error;
+  if (!image_codec().write(path.c_str(), image.width, image.height, png, pixels, &error))
+    throw std::runtime_error("cannot write " + path + ": " + error);
 }
 
 }  // namespace
@@ -106,23 +99,21 @@ void write_image(const Image& image, const std::string& path, const ImageWriteOp
   if (ext == ".pfm")
     write_pfm(image, file.temp_path());
   else
-    write_oiio(image, file.temp_path(), ext == ".png", options.exposure);
+    write_coded(image, file.temp_path(), ext == ".png", options.exposure);
   file.commit();
 }
 
 Image read_image(const std::string& path) {
   if (extension_of(path) == ".pfm") return read_pfm(path);
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw InputError(SourceLocation{path}, "cannot read the image: " + OIIO::geterror());
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.nchannels < 3)
-    throw InputError(SourceLocation{path}, "the image has fewer than 3 channels");
-  std::vector<float> all(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
-    throw InputError(SourceLocation{path}, "cannot read the image: " + in->geterror());
-  Image img(spec.width, spec.height);
-  for (size_t p = 0; p < static_cast<size_t>(spec.width) * spec.height; ++p)
-    for (int c = 0; c < 3; ++c) img.rgb[3 * p + c] = all[p * spec.nchannels + c];
+  int width = 0, height = 0, channels = 0;
+  std::vector<float> all;
+  std::string error;
+  if (!image_codec().read(path.c_str(), &width, &height, &channels, &all, &error))
+    throw InputError(SourceLocation{path}, "cannot read the image: " + error);
+  if (channels < 3) throw InputError(SourceLocation{path}, "the image has fewer than 3 channels");
+  Image img(width, height);
+  for (size_t p = 0; p < static_cast<size_t>(width) * height; ++p)
+    for (int c = 0; c < 3; ++c) img.rgb[3 * p + c] = all[p * channels + c];
   return img;
 }
 

@@ -10,7 +10,8 @@
 //   std::string pfm = encode_pfm(relit.image);
 //
 // Cost: encode_pfm one copy (12 bytes a pixel); encode_png the tonemap by table (no pow per
-// value, 0.7 ms at 256 x 256 here) and libpng through OpenImageIO (1.5 ms, see PngEncoding).
+// value, 0.7 ms at 256 x 256 here) and libpng through OpenImageIO in the codec module
+// (io/image_codec.h; 1.5 ms, see PngEncoding).
 #pragma once
 
 #include <array>
