@@ -1,12 +1,14 @@
 // The command line's shared pieces (flags.h).
 #include "flags.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 #include "polyrad/io/image_io.h"
 #include "polyrad/util/files.h"
+#include "polyrad/util/machine.h"
 
 namespace polyrad::cli {
 
@@ -27,8 +29,10 @@ void check_image_path(const std::string& path) {
     throw InputError("image '" + path + "': unknown format (use .exr, .pfm or .png)");
 }
 
-void write_report(const std::string& path, const Report& report) {
-  if (!path.empty()) write_file_atomic(path, to_json(report));
+void write_report(const std::string& path, Report report) {
+  if (path.empty()) return;
+  report.peak_memory_bytes = std::max(report.peak_memory_bytes, peak_memory_bytes());
+  write_file_atomic(path, to_json(report));
 }
 
 void print_warnings(const std::vector<LobeResolution>& lobes) {

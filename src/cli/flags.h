@@ -38,8 +38,9 @@ CLI::Option* add_enum_option(CLI::App& app, const std::string& name, E& value,
 void check_output_path(const std::string& path, const char* what);
 void check_image_path(const std::string& path);
 
-// The report, when a path was given.
-void write_report(const std::string& path, const Report& report);
+// The report, when a path was given. Its peak memory is the process's up to this call, so that
+// it counts the images the command wrote (their codec loads with the first, io/image_codec.h).
+void write_report(const std::string& path, Report report);
 
 // One "polyrad: warning: ..." line on stderr per lobe the patches smear.
 void print_warnings(const std::vector<LobeResolution>& lobes);
