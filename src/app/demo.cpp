@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "polyrad/app/render.h"
+#include "polyrad/io/image_codec.h"
 #include "polyrad/io/image_io.h"
 #include "polyrad/io/prt_file.h"
 #include "polyrad/render/image_compare.h"
@@ -34,13 +35,14 @@ DemoResult demo(const DemoOptions& f) {
   say("building the glossy radiosity system (form factors, specular transfer, operator)");
   auto loaded = World::load(f.scene);
   // The final gather is stored (the iterative image and the precompute's view rows both read
-  // it), beside the view rows: the camera's share of the memory estimate.
+  // it), beside the view rows, and the codec of its PNGs: the camera's share of the memory
+  // estimate.
   const Camera& camera = loaded->camera();
   SystemOptions system;
   system.camera_bytes =
       gather_memory(GatherOptions::final_gather(),
                     static_cast<std::int64_t>(camera.width) * camera.height, false) +
-      rows_memory(SeriesOptions{}, loaded->scene());
+      rows_memory(SeriesOptions{}, loaded->scene()) + kImageCodecBytes;
   auto sys = build_system(std::move(loaded), system);
   const World& world = *sys->world;
   const auto& t = sys->transport;

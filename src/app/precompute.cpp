@@ -36,7 +36,8 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
   MemoryEstimate m;
   m.patches = static_cast<double>(sys.unknown_patches().size());
   m.visible_pairs = static_cast<double>(sys.form_factors.stats.pairs_visible);
-  m.base = static_cast<double>(peak_memory_bytes());  // what the run holds so far, at most
+  // What the run holds now, not its peak so far: the build's transient peak is behind it.
+  m.base = static_cast<double>(resident_memory_bytes());
   m.camera = rows_memory(series, view ? static_cast<double>(pixels) : unknowns, unknowns, columns) +
              (view ? gather_memory(series.gather, pixels, true) : 0.0);
   if (sys.hierarchy) {

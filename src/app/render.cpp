@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "polyrad/app/precompute.h"
+#include "polyrad/io/image_codec.h"
 #include "polyrad/transport/memory_estimate.h"
 #include "polyrad/util/stats.h"
 
@@ -12,22 +13,20 @@ namespace polyrad {
 namespace {
 
 // The camera's share of the memory estimate (transport/memory_estimate.h): the gather, or the
-// view rows and their deferred gather, or the path tracer's image and its error buffers.
+// view rows and their deferred gather, or the path tracer's image and its error buffers; and
+// the codec of the image a render is for (io/image_codec.h), loaded while all this is held.
 double camera_memory(const RenderOptions& o, const Scene& scene) {
   const std::int64_t pixels = static_cast<std::int64_t>(scene.camera.width) * scene.camera.height;
-  switch (o.method) {
-    case RenderMethod::kIterative:
-      return gather_memory(o.gather, pixels, o.gather.kind == GatherKind::kFinal);
-    case RenderMethod::kSeries: {
-      SeriesOptions so = o.series;
-      so.output = SeriesOutput::kView;
-      so.gather = o.gather;
-      return rows_memory(so, scene);
-    }
-    case RenderMethod::kPathTrace:
-      break;
+  double bytes = 48.0 * static_cast<double>(pixels);  // the path tracer's image and buffers
+  if (o.method == RenderMethod::kIterative) {
+    bytes = gather_memory(o.gather, pixels, o.gather.kind == GatherKind::kFinal);
+  } else if (o.method == RenderMethod::kSeries) {
+    SeriesOptions so = o.series;
+    so.output = SeriesOutput::kView;
+    so.gather = o.gather;
+    bytes = rows_memory(so, scene);
   }
-  return 48.0 * static_cast<double>(pixels);
+  return kImageCodecBytes + bytes;
 }
 
 // The scene, timed as "load", and the world built from it (its mesh and ray caster times). The

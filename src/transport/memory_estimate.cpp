@@ -12,7 +12,7 @@ namespace polyrad {
 
 namespace {
 
-constexpr double kBaseBytes = 130.0 * (1 << 20);
+constexpr double kBaseBytes = 20.0 * (1 << 20);
 constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;

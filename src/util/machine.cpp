@@ -37,6 +37,13 @@ std::size_t peak_memory_bytes() {
   return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
 }
 
+std::size_t resident_memory_bytes() {
+  std::ifstream in("/proc/self/statm");
+  std::size_t pages = 0, resident = 0;
+  if (!(in >> pages >> resident)) return peak_memory_bytes();
+  return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
 std::string load_average() {
   std::ifstream in("/proc/loadavg");
   double l1 = 0, l5 = 0, l15 = 0;

@@ -3,7 +3,7 @@
 // not. The figures per part are calibrated against the peaks measured on the Cornell scenes
 // (README, "Memory"); the estimate stays within a factor 1.5 of them.
 //
-//   base     the process: libraries, Embree's device, the scene                  130 MiB
+//   base     the process: libraries, Embree's device, the scene                   20 MiB
 //   world    the patches and their ray caster                       350 bytes a patch
 //   system   the form factors and T's diffuse rows                48 bytes a visible pair
 //            the specular transfer and T's link rows            50 bytes a transfer entry
@@ -14,7 +14,9 @@
 //            0.05 / tau (at most 16 times) as the tolerance tightens, and with lobes
 //            the transfer on its roots as above
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
-//            precompute's view rows (solve/series_precompute.h, rows_memory), images
+//            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
+//            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
+//            110 MiB, counted in full: the system is still held when the image is written)
 // Visible pairs: before meshing, the pairs of faces that face each other, weighted by their
 // patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked; the check
 // before meshing refuses only past a tenth); from a built world, 4096 random patch pairs tested

@@ -53,8 +53,9 @@ struct SystemOptions {
   // Refuse (InputError) a run whose estimated memory (transport/memory_estimate.h) exceeds this
   // many bytes; 0: 80 percent of the machine's physical memory.
   double max_memory_bytes = 0.0;
-  // The camera's share of that estimate (images, gather, view rows), which the workflow knows
-  // and sets: gather_memory (render/camera_gather.h), rows_memory (solve/series_precompute.h).
+  // The camera's share of that estimate (images and their codec, gather, view rows), which the
+  // workflow knows and sets: gather_memory (render/camera_gather.h), rows_memory
+  // (solve/series_precompute.h), kImageCodecBytes (io/image_codec.h).
   double camera_bytes = 0.0;
 };
 
