@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "polyrad/io/image_codec.h"
+#include "polyrad/io/image_encoding.h"
 #include "polyrad/util/error.h"
 #include "polyrad/util/files.h"
 
@@ -63,13 +64,9 @@ Image read_pfm(const std::string& path) {
 }
 
 void write_coded(const Image& image, const std::string& path, bool png, double exposure) {
-  std::vector<unsigned char> bytes;
-  if (png) {
-    bytes.resize(image.rgb.size());
-    for (size_t k = 0; k < image.rgb.size(); ++k)
-      bytes[k] =
-          static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[k] * exposure)));
-  }
+  // A .png holds 8-bit sRGB, by the same table the relighting page encodes with (its values
+  // are to_srgb8's, below).
+  const std::string bytes = png ? tonemap_srgb8(image, exposure) : std::string();
   const void* pixels = png ? static_cast<const void*>(bytes.data()) : image.rgb.data();
   std::string error;
   if (!image_codec().write(path.c_str(), image.width, image.height, png, pixels, &error))
