@@ -17,7 +17,7 @@ FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Mater
   // G_ij = sum of A'_a F_ab over the links between the trees of i and j (eq. 4, the etendue
   // over pi): the finer the links, the finer the pair integral they sum to.
   std::vector<std::tuple<std::int32_t, std::int32_t, double>> g;
-  for (const ElementLink& l : h.links()) {
+  for (const LinkedPair& l : h.links()) {
     const std::int32_t ra = el[l.a].root, rb = el[l.b].root;
     const double etendue = el[l.a].exposed * static_cast<double>(l.m);
     if (!(etendue > 0.0)) continue;

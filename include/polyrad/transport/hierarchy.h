@@ -72,8 +72,8 @@
 // Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
 // refinement costs ten point form factors and at most visibility_rays rays per candidate, and
 // each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 300 bytes per
-// element, 56 per link while building and 48 in T (both directions, five floats and an index
-// each); one application reads every link twice and each tree three times. Lobes add the
+// element, 64 per link while building, 12 once built and 48 in T (both directions, five floats
+// and an index each); one application reads every link twice and each tree three times. Lobes add the
 // uniform mesh's transfer on the roots (2 x samples rays per facing pair into a reflector),
 // 8 bytes per entry of a root link's row and 4 per element link entry of the trees that
 // reflect or receive specular light.
@@ -138,22 +138,13 @@ struct Element {
   bool is_leaf() const { return first_child < 0; }
 };
 
-// What the oracle's visibility rays found between the two elements of a link.
-enum class LinkVisibility : std::uint8_t { kUntested, kVisible, kPartial, kHidden };
-
-// A link between elements a and b: one pair form factor, both directions. F_ab = m (the mean
-// over a's exposed points of the point form factor to b), F_ba = m A'_a / A'_b.
-struct ElementLink {
+// A link of the finished hierarchy: elements a and b and one pair form factor for both
+// directions, F_ab = m (the mean over a's exposed points of the point form factor to b) and
+// F_ba = m A'_a / A'_b. What the oracle measured on it while refining (point values, rays) is
+// dropped when the build ends: on the mirror cube it was five times the size of this.
+struct LinkedPair {
   std::int32_t a = 0, b = 0;
   float m = 0.0f;
-  // The oracle's unoccluded point form factors (eq. 5) from a's sample points to b (fa) and
-  // from b's to a (fb): the corners pulled 1 percent toward the centre (on a corner that lies
-  // in the other's plane the kernel jumps), then the centre; a triangle repeats its centre.
-  std::array<float, kOraclePoints> fa{}, fb{};
-  LinkVisibility visibility = LinkVisibility::kUntested;
-  // A partly hidden pair's largest unoccluded point values (fa, fb are then weighed by each
-  // point's visible fraction).
-  float fmax_a = 0.0f, fmax_b = 0.0f;
 };
 
 // A point of a root patch located on its leaf.
@@ -303,7 +294,7 @@ class HierarchicalOperator {
 class ElementHierarchy {
  public:
   const std::vector<Element>& elements() const { return elements_; }
-  const std::vector<ElementLink>& links() const { return links_; }
+  const std::vector<LinkedPair>& links() const { return links_; }
   int num_roots() const { return num_roots_; }
   int num_leaves() const { return static_cast<int>(leaves_.size()); }
   // The leaves as patches, in unknown order: what a caller that indexes unknowns by patch reads
@@ -334,7 +325,7 @@ class ElementHierarchy {
   friend class HierarchyBuilder;
   void build_corner_averages(const PatchSet& roots);
   std::vector<Element> elements_;
-  std::vector<ElementLink> links_;
+  std::vector<LinkedPair> links_;
   std::vector<std::int32_t> leaf_element_;
   PatchSet leaves_;
   const PatchSet* roots_ = nullptr;
