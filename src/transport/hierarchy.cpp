@@ -1060,6 +1060,7 @@ void HierarchyBuilder::run() {
   }
   LinkChunks().swap(links_);  // the oracle's data, where the passes ended early
   h_.build_corner_averages(roots_);
+  h_.build_lookup(roots_);
   st.seconds = t_start.seconds();
 }
 

@@ -20,38 +20,38 @@ Vec2 corner_param(const Patch& p, int k) {
   return p.is_triangle() ? kTriangle[k % 3] : kQuad[k % 4];
 }
 
-// Barycentric parameters of q in the parameter triangle of an element (its uv[0..2]).
-Vec2 triangle_local(const Element& e, const Vec2& q) {
-  const Vec2 a = e.uv[1] - e.uv[0], b = e.uv[2] - e.uv[0], d = q - e.uv[0];
+// Barycentric parameters of q in the parameter triangle uv[0..2] (an element's corners).
+Vec2 triangle_local(const Vec2* uv, const Vec2& q) {
+  const Vec2 a = uv[1] - uv[0], b = uv[2] - uv[0], d = q - uv[0];
   const double det = a.x() * b.y() - a.y() * b.x();
   return Vec2((d.x() * b.y() - d.y() * b.x()) / det, (a.x() * d.y() - a.y() * d.x()) / det);
 }
 
-// q's parameters on element e (its own Patch::point), and whether e holds q within tol.
-Vec2 local_params(const Element& e, const Vec2& q) {
-  if (e.shape.is_triangle()) return triangle_local(e, q);
-  return Vec2((q.x() - e.uv[0].x()) / (e.uv[2].x() - e.uv[0].x()),
-              (q.y() - e.uv[0].y()) / (e.uv[2].y() - e.uv[0].y()));
+// q's parameters on the element with parameter corners uv (its own Patch::point).
+Vec2 local_params(const Vec2* uv, bool triangle, const Vec2& q) {
+  if (triangle) return triangle_local(uv, q);
+  return Vec2((q.x() - uv[0].x()) / (uv[2].x() - uv[0].x()),
+              (q.y() - uv[0].y()) / (uv[2].y() - uv[0].y()));
 }
+// Whether element e holds q within tol.
 bool holds(const Element& e, const Vec2& q, double tol) {
-  const Vec2 st = local_params(e, q);
+  const Vec2 st = local_params(e.uv.data(), e.shape.is_triangle(), q);
   if (e.shape.is_triangle())
     return st.x() >= -tol && st.y() >= -tol && st.x() + st.y() <= 1.0 + tol;
   return st.x() >= -tol && st.x() <= 1.0 + tol && st.y() >= -tol && st.y() <= 1.0 + tol;
 }
 
-// The child of e that holds q (e's children tile it; ties go to the later half).
-std::int32_t child_holding(const std::vector<Element>& el, const Element& e, const Vec2& q) {
-  if (!e.shape.is_triangle()) {
-    const Vec2 mid = 0.5 * (e.uv[0] + e.uv[2]);
-    return e.first_child + (q.x() >= mid.x() ? 1 : 0) + (q.y() >= mid.y() ? 2 : 0);
+// The child of node n that holds q (its children tile it; ties go to the later half).
+std::int32_t child_holding(const ElementHierarchy::LookupNode& n, bool triangle, const Vec2& q) {
+  if (!triangle) {
+    const Vec2 mid = 0.5 * (n.uv[0] + n.uv[2]);
+    return n.first_child + (q.x() >= mid.x() ? 1 : 0) + (q.y() >= mid.y() ? 2 : 0);
   }
-  (void)el;
-  const Vec2 st = triangle_local(e, q);
-  if (st.x() >= 0.5) return e.first_child + 1;
-  if (st.y() >= 0.5) return e.first_child + 2;
-  if (st.x() + st.y() <= 0.5) return e.first_child;
-  return e.first_child + 3;
+  const Vec2 st = triangle_local(n.uv.data(), q);
+  if (st.x() >= 0.5) return n.first_child + 1;
+  if (st.y() >= 0.5) return n.first_child + 2;
+  if (st.x() + st.y() <= 0.5) return n.first_child;
+  return n.first_child + 3;
 }
 
 // The point of quad p that Embree's parameters (u, v) name: Embree splits the quad into
@@ -85,16 +85,30 @@ Vec2 bilinear_params(const Patch& p, const Vec3& x, double u, double v) {
 
 LeafPoint ElementHierarchy::leaf_at(PatchId root, double u, double v) const {
   const Patch& p = (*roots_)[root];
+  const bool triangle = p.is_triangle();
   Vec2 q(u, v);
-  if (!p.is_triangle()) {
-    const double skew = (p.corner[0] + p.corner[2] - p.corner[1] - p.corner[3]).norm();
-    if (skew > 1e-12 * p.diameter()) q = bilinear_params(p, embree_point(p, u, v), u, v);
+  if (!triangle) {
+    if (skewed_[root]) q = bilinear_params(p, embree_point(p, u, v), u, v);
     q = q.cwiseMax(0.0).cwiseMin(1.0);
   }
   std::int32_t e = root;
-  while (elements_[e].first_child >= 0) e = child_holding(elements_, elements_[e], q);
-  const Vec2 st = local_params(elements_[e], q);
-  return {e, elements_[e].leaf, st.x(), st.y()};
+  while (lookup_[e].first_child >= 0) e = child_holding(lookup_[e], triangle, q);
+  const Vec2 st = local_params(lookup_[e].uv.data(), triangle, q);
+  return {e, lookup_[e].leaf, st.x(), st.y()};
+}
+
+void ElementHierarchy::build_lookup(const PatchSet& roots) {
+  lookup_.resize(elements_.size());
+  for (std::size_t k = 0; k < elements_.size(); ++k) {
+    const Element& e = elements_[k];
+    lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}};
+  }
+  skewed_.resize(roots.size());
+  for (std::size_t r = 0; r < roots.size(); ++r) {
+    const Patch& p = roots[r];
+    const double skew = (p.corner[0] + p.corner[2] - p.corner[1] - p.corner[3]).norm();
+    skewed_[r] = !p.is_triangle() && skew > 1e-12 * p.diameter();
+  }
 }
 
 void ElementHierarchy::diffuse_weights(PatchId root, double u, double v, bool smooth,
