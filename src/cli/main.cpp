@@ -7,6 +7,7 @@
 
 #include "flags.h"
 #include "polyrad/util/files.h"
+#include "polyrad/util/machine.h"
 #include "polyrad/util/progress.h"
 
 namespace {
@@ -22,6 +23,7 @@ void on_signal(int sig) {
 
 int main(int argc, char** argv) {
   using namespace polyrad::cli;
+  polyrad::return_large_blocks_to_the_system();
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGHUP, on_signal);

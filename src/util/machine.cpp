@@ -3,6 +3,9 @@
 
 #include <sys/resource.h>
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <cstdio>
 #include <ctime>
@@ -42,6 +45,13 @@ std::size_t resident_memory_bytes() {
   std::size_t pages = 0, resident = 0;
   if (!(in >> pages >> resident)) return peak_memory_bytes();
   return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+void return_large_blocks_to_the_system() {
+#if defined(__GLIBC__)
+  // A fixed threshold also turns glibc's raising of it off (mallopt(3)).
+  mallopt(M_MMAP_THRESHOLD, 1 << 18);
+#endif
 }
 
 std::string load_average() {

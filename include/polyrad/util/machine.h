@@ -3,6 +3,7 @@
 //   std::string m = machine_description();   // "AMD EPYC ..., 2 hardware threads, 23.5 GiB"
 //   std::size_t peak = peak_memory_bytes();
 //   std::size_t now = resident_memory_bytes();
+//   return_large_blocks_to_the_system();     // first thing in main()
 //
 // Cost: a read of /proc (cpuinfo, loadavg) or one getrusage call.
 #pragma once
@@ -22,6 +23,12 @@ std::size_t peak_memory_bytes();
 // Resident memory of this process now (its peak so far where /proc does not say): what it
 // holds, and what its allocator keeps of what it freed.
 std::size_t resident_memory_bytes();
+// Has the allocator give every block of 256 KiB or more back to the system when it is freed
+// (glibc's allocator; elsewhere this does nothing). Call once, first thing in a program. By
+// default glibc raises that threshold to the largest block freed so far, so once a build's
+// transient arrays are freed, later ones of that size come from the heap and their pages stay
+// resident after they too are freed: 25 MB of the peak of the mirror cube's hierarchical render.
+void return_large_blocks_to_the_system();
 // The 1, 5 and 15 minute load averages as "l1 l5 l15" ("unknown" off Linux): timings on a
 // busy machine are slower and noisier, and reports say so.
 std::string load_average();
