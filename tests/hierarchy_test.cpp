@@ -387,6 +387,34 @@ TEST(Hierarchy, ALeafIsFoundUnderEveryPointOfItsRoot) {
   }
 }
 
+// leaf_at starts a quad's descent from a grid of its tree: on the midlines of every level, where
+// a grid cell and the descent could disagree, the point goes to the later half (the leaf's own
+// parameter there is 0, not 1), and at the root's far edges to the last leaf.
+TEST(Hierarchy, ATieGoesToTheLaterHalfAtEveryLevel) {
+  Options o = hierarchical(0.1, 6.25);
+  o.overrides.patch_size = 100;
+  auto sys = build(load_scene(test::scene_path("cornell-box")), o);
+  const ElementHierarchy& h = *sys->hierarchy;
+  int checked = 0;
+  for (PatchId p = 0; p < static_cast<PatchId>(sys->patches().size()); ++p) {
+    const Patch& root = sys->patches()[p];
+    const double skew = (root.corner[0] + root.corner[2] - root.corner[1] - root.corner[3]).norm();
+    if (root.is_triangle() || skew > 1e-12 * root.diameter()) continue;  // (u, v) moved first
+    if (h.elements()[p].first_child < 0) continue;
+    for (int i = 0; i <= 16; ++i)
+      for (int j = 0; j <= 16; ++j) {
+        const double u = i / 16.0, v = j / 16.0;
+        const LeafPoint lp = h.leaf_at(p, u, v);
+        ASSERT_GE(lp.leaf, 0);
+        // s (t) is 1 only at the root's far edge: at every tie inside, the later half took it.
+        EXPECT_EQ(lp.s == 1.0, i == 16) << "root " << p << " u " << u << " s " << lp.s;
+        EXPECT_EQ(lp.t == 1.0, j == 16) << "root " << p << " v " << v << " t " << lp.t;
+        ++checked;
+      }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
 // Random streams are keyed by element pairs, never by thread: the same links on 1 and 2 threads.
 TEST(Hierarchy, SameLinksOnOneOrTwoThreads) {
   auto build_on = [](int threads) {

@@ -11,6 +11,8 @@ namespace polyrad {
 namespace {
 
 constexpr double kParamTolerance = 1e-9;
+// The deepest grid leaf_at starts a quad's descent from: 256 cells, 1 KiB a root.
+constexpr int kMaxGridDepth = 4;
 
 // Parameters of a root's corners (Patch::point): quad corners at the unit square's, triangle
 // corners at (0,0), (1,0), (0,1).
@@ -92,6 +94,12 @@ LeafPoint ElementHierarchy::leaf_at(PatchId root, double u, double v) const {
     q = q.cwiseMax(0.0).cwiseMin(1.0);
   }
   std::int32_t e = root;
+  if (const int depth = grid_depth_[root]; depth > 0) {  // a quad's tree: its grid first
+    const int n = 1 << depth;
+    const int i = std::min(static_cast<int>(q.x() * n), n - 1);
+    const int j = std::min(static_cast<int>(q.y() * n), n - 1);
+    e = grid_[grid_start_[root] + j * n + i];
+  }
   while (lookup_[e].first_child >= 0) e = child_holding(lookup_[e], triangle, q);
   const Vec2 st = local_params(lookup_[e].uv.data(), triangle, q);
   return {e, lookup_[e].leaf, st.x(), st.y()};
@@ -104,10 +112,40 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
     lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}};
   }
   skewed_.resize(roots.size());
+  grid_depth_.assign(roots.size(), 0);
+  grid_start_.assign(roots.size(), 0);
+  grid_.clear();
   for (std::size_t r = 0; r < roots.size(); ++r) {
     const Patch& p = roots[r];
     const double skew = (p.corner[0] + p.corner[2] - p.corner[1] - p.corner[3]).norm();
     skewed_[r] = !p.is_triangle() && skew > 1e-12 * p.diameter();
+    if (p.is_triangle()) continue;
+    // The grid of a quad's tree at its leaves' deepest level (at most kMaxGridDepth): each
+    // cell the element the descent reaches at that level. The splits halve the parameters, so
+    // a cell is the floor of q times 2^depth, exactly as the descent compares q with the
+    // midpoints.
+    int depth = 0;  // the deepest leaf's level below the root
+    std::vector<std::int32_t> stack{static_cast<std::int32_t>(r)};
+    while (!stack.empty()) {
+      const std::int32_t x = stack.back();
+      stack.pop_back();
+      depth = std::max(depth, elements_[x].level - elements_[r].level);
+      if (lookup_[x].first_child >= 0)
+        for (int c = 0; c < 4; ++c) stack.push_back(lookup_[x].first_child + c);
+    }
+    depth = std::min(depth, kMaxGridDepth);
+    if (depth == 0) continue;
+    const int n = 1 << depth;
+    grid_depth_[r] = static_cast<std::uint8_t>(depth);
+    grid_start_[r] = static_cast<std::int64_t>(grid_.size());
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const Vec2 q((i + 0.5) / n, (j + 0.5) / n);
+        std::int32_t e = static_cast<std::int32_t>(r);
+        while (lookup_[e].first_child >= 0 && elements_[e].level - elements_[r].level < depth)
+          e = child_holding(lookup_[e], false, q);
+        grid_.push_back(e);
+      }
   }
 }
 

@@ -350,6 +350,11 @@ class ElementHierarchy {
   std::vector<std::pair<std::int32_t, float>> corner_entries_;
   std::vector<LookupNode> lookup_;
   std::vector<char> skewed_;  // per root: a quad whose bilinear map is not Embree's (leaf_at)
+  // Per quad root, its tree as a grid of 2^d x 2^d cells in its parameters, each the element
+  // the descent reaches at depth d (d = 0: none): leaf_at starts there instead of at the root.
+  std::vector<std::uint8_t> grid_depth_;
+  std::vector<std::int64_t> grid_start_;
+  std::vector<std::int32_t> grid_;
 };
 
 // Builds the trees on the uniform mesh `roots` (which the caster was built on, and which must
