@@ -71,12 +71,13 @@
 //
 // Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
 // refinement costs ten point form factors and at most visibility_rays rays per candidate, and
-// each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 300 bytes per
-// element, 64 per link while building, 12 once built and 48 in T (both directions, five floats
-// and an index each); one application reads every link twice and each tree three times. Lobes add the
-// uniform mesh's transfer on the roots (2 x samples rays per facing pair into a reflector),
-// 8 bytes per entry of a root link's row and 4 per element link entry of the trees that
-// reflect or receive specular light.
+// each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 420 bytes per
+// element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 64
+// per link while building, 12 once built and 48 in T (both directions, five floats and an index
+// each); one application reads every link twice and each tree three times. Lobes add the
+// uniform mesh's transfer on the roots (2 x samples rays per facing pair into a reflector), 8
+// bytes per entry of a root link's row and 4 per element link entry of the trees that reflect
+// or receive specular light.
 #pragma once
 
 #include <algorithm>
