@@ -112,6 +112,10 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
     lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}};
   }
   skewed_.resize(roots.size());
+  // Each root's deepest level (roots are elements 0 to R - 1, at level 0), at most
+  // kMaxGridDepth: the depth of its grid.
+  std::vector<int> deepest(roots.size(), 0);
+  for (const Element& e : elements_) deepest[e.root] = std::max(deepest[e.root], e.level);
   grid_depth_.assign(roots.size(), 0);
   grid_start_.assign(roots.size(), 0);
   grid_.clear();
@@ -119,22 +123,11 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
     const Patch& p = roots[r];
     const double skew = (p.corner[0] + p.corner[2] - p.corner[1] - p.corner[3]).norm();
     skewed_[r] = !p.is_triangle() && skew > 1e-12 * p.diameter();
-    if (p.is_triangle()) continue;
-    // The grid of a quad's tree at its leaves' deepest level (at most kMaxGridDepth): each
-    // cell the element the descent reaches at that level. The splits halve the parameters, so
-    // a cell is the floor of q times 2^depth, exactly as the descent compares q with the
-    // midpoints.
-    int depth = 0;  // the deepest leaf's level below the root
-    std::vector<std::int32_t> stack{static_cast<std::int32_t>(r)};
-    while (!stack.empty()) {
-      const std::int32_t x = stack.back();
-      stack.pop_back();
-      depth = std::max(depth, elements_[x].level - elements_[r].level);
-      if (lookup_[x].first_child >= 0)
-        for (int c = 0; c < 4; ++c) stack.push_back(lookup_[x].first_child + c);
-    }
-    depth = std::min(depth, kMaxGridDepth);
-    if (depth == 0) continue;
+    // The grid of a quad's tree at its leaves' deepest level: each cell the element the descent
+    // reaches at that level. The splits halve the parameters, so a cell is the floor of q times
+    // 2^depth, exactly as the descent compares q with the midpoints.
+    const int depth = std::min(deepest[r], kMaxGridDepth);
+    if (p.is_triangle() || depth == 0) continue;
     const int n = 1 << depth;
     grid_depth_[r] = static_cast<std::uint8_t>(depth);
     grid_start_[r] = static_cast<std::int64_t>(grid_.size());
@@ -142,7 +135,7 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
       for (int i = 0; i < n; ++i) {
         const Vec2 q((i + 0.5) / n, (j + 0.5) / n);
         std::int32_t e = static_cast<std::int32_t>(r);
-        while (lookup_[e].first_child >= 0 && elements_[e].level - elements_[r].level < depth)
+        while (lookup_[e].first_child >= 0 && elements_[e].level < depth)
           e = child_holding(lookup_[e], false, q);
         grid_.push_back(e);
       }
