@@ -53,10 +53,11 @@ std::string grey(double a) {
   return s.str();
 }
 
-// The white furnace of papers/glossy-radiosity.md, section 10, on the hierarchy: as the tolerance falls, every leaf
-// approaches E / (1 - a), and at tau = 0.003 every leaf, refined down to an eighth of its root,
-// is within 0.5 percent; the camera reads the same, flat and smooth. (A closed box of two
-// roots a side is all near field: the uniform mesh is exact here, the hierarchy converges.)
+// The white furnace of papers/glossy-radiosity.md, section 10, on the hierarchy: as the tolerance
+// falls, every leaf approaches E / (1 - a), and at tau = 0.003 every leaf, refined down to an
+// eighth of its root, is within 0.5 percent; the camera reads the same, flat and smooth. (A closed
+// box of two roots a side is all near field: the uniform mesh is exact here, the hierarchy
+// converges.)
 TEST(Hierarchy, FurnaceIsEmissionOverOneMinusAlbedoOnEveryLeaf) {
   const double a = 0.5, expect = 1.0 / (1.0 - a);
   const std::string json = test::closed_box_json(Vec3(1, 1, 1), 0.5, grey(a), 1.0);
@@ -144,9 +145,9 @@ TEST(Hierarchy, ClosedRoomRootsSendAllTheirFluxWithTheGuard) {
   }
 }
 
-// Two directly opposed unit squares at distance 1 (papers/glossy-radiosity.md, section 10): F = 0.199825. The lamp
-// refines the pair; the etendues of the links between the two trees still sum to A F, and one
-// application of T delivers exactly that flux to the receiver's leaves.
+// Two directly opposed unit squares at distance 1 (papers/glossy-radiosity.md, section 10): F =
+// 0.199825. The lamp refines the pair; the etendues of the links between the two trees still sum to
+// A F, and one application of T delivers exactly that flux to the receiver's leaves.
 TEST(Hierarchy, ParallelSquaresLinksSumToTheAnalyticFormFactor) {
   const char* json = R"({
     "camera": {"position": [0.5, 0.5, -2], "look_at": [0.5, 0.5, 1], "fov_deg": 40, "width": 8, "height": 8},
@@ -526,7 +527,7 @@ TEST(Hierarchy, FurnaceWithLobesIsEmissionOverOneMinusAlbedo) {
       EXPECT_GT(h.num_leaves(), 4 * h.num_roots());  // it did refine
       for (int l = 0; l < h.num_leaves(); ++l) {
         // B = E + d sum_j F_ij L_{j->i} = 1 + d E / (1 - a) (the lobe's part is on the links).
-        const Material& m = sys->scene().materials[h.leaves()[l].material];
+        const Material& m = sys->scene().materials[h.leaf(l).material];
         const double b = 1.0 + m.diffuse[0] * expect;
         if (m.diffuse.maxCoeff() > 0.0) error = std::max(error, std::abs(r.u(l, 0) - b) / b);
       }
@@ -592,10 +593,9 @@ double receiver_first_bounce(const std::string& json, const Options& o) {
   so.fixed_sweeps = 2;
   SolveResult r = solve(sys->transport, sys->transport.emission(), so);
   const ObjectId rec = sys->scene().find_object("receiver");
-  const PatchSet& leaves = sys->unknown_patches();
   double sum = 0.0, area = 0.0;
-  for (PatchId l = 0; l < static_cast<PatchId>(leaves.size()); ++l)
-    if (leaves[l].object == rec) {
+  for (Eigen::Index l = 0; l < sys->num_unknown_patches(); ++l)
+    if (sys->unknown_patch(l).object == rec) {
       const double w = sys->transport.flux_weight()[l];
       sum += w * r.u(l, 0);
       area += w;
@@ -636,7 +636,7 @@ TEST(Hierarchy, ColumnSumsWithLobesStayWithinTheLargestAlbedo) {
                     [&](int x, int y) { return guarded[x] > guarded[y]; });
   std::vector<Eigen::Index> columns(order.begin(), order.begin() + 40);
   for (int l = 0; l < sys->hierarchy->num_leaves(); ++l)
-    if (sys->scene().materials[sys->hierarchy->leaves()[l].material].has_lobe() && l % 3 == 0)
+    if (sys->scene().materials[sys->hierarchy->leaf(l).material].has_lobe() && l % 3 == 0)
       columns.push_back(l);
   for (int k = 0; k < 40; ++k) columns.push_back((k * 7919) % static_cast<int>(guarded.size()));
   for (int k = 0; k < 60; ++k) columns.push_back(t.num_patches() + (k * 104729) % t.num_links());

@@ -34,7 +34,7 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
   const std::int64_t pixels = static_cast<std::int64_t>(w.camera().width) * w.camera().height;
   const bool view = series.output == SeriesOutput::kView;
   MemoryEstimate m;
-  m.patches = static_cast<double>(sys.unknown_patches().size());
+  m.patches = static_cast<double>(sys.num_unknown_patches());
   m.visible_pairs = static_cast<double>(sys.form_factors.stats.pairs_visible);
   // What the run holds now, not its peak so far: the build's transient peak is behind it.
   m.base = static_cast<double>(resident_memory_bytes());

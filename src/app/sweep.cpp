@@ -199,8 +199,9 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
     r.method = method;
     r.mesh = enum_name(d.system.mesh);
     r.patch_size = patch_size;
-    if (d.system.mesh == MeshKind::kHierarchical) r.link_tolerance = d.system.hierarchy.link_tolerance;
-    r.patches = static_cast<long long>(sys->unknown_patches().size());  // a hierarchy's leaves
+    if (d.system.mesh == MeshKind::kHierarchical)
+      r.link_tolerance = d.system.hierarchy.link_tolerance;
+    r.patches = static_cast<long long>(sys->num_unknown_patches());  // a hierarchy's leaves
     r.unknowns = static_cast<long long>(t.size());
     r.system_seconds = system_seconds;
     r.gather_seconds = gather.seconds;
@@ -332,8 +333,8 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
   std::fprintf(stderr,
                "polyrad sweep: %s: %zu patches, %lld unknowns, built in %.2f s, "
                "converged in %d sweeps\n",
-               label.c_str(), sys->unknown_patches().size(), static_cast<long long>(t.size()),
-               system_seconds, converged.iterations);
+               label.c_str(), static_cast<size_t>(sys->num_unknown_patches()),
+               static_cast<long long>(t.size()), system_seconds, converged.iterations);
 }
 
 }  // namespace

@@ -31,6 +31,64 @@ struct ElementLink {
   float fmax_a = 0.0f, fmax_b = 0.0f;
 };
 
+// A link as the builder holds it between passes: each side's point values as 16-bit fractions
+// of a scale (the partly hidden pair's F_max, else the largest value), so 44 bytes where an
+// ElementLink takes 64; the links are the build's largest array (28 MB of 64-byte links on the
+// mirror cube at tau 0.05). A value comes back within 2^-16 of its side's largest, far below the
+// spread the oracle weighs (tau of the mean, eq. H1) and the slopes it fits.
+struct KeptLink {
+  std::int32_t a = 0, b = 0;
+  float m = 0.0f;
+  float scale_a = 0.0f, scale_b = 0.0f;
+  LinkVisibility visibility = LinkVisibility::kUntested;
+  std::array<std::uint16_t, kOraclePoints> qa{}, qb{};
+
+  static KeptLink keep(const ElementLink& l) {
+    KeptLink k;
+    k.a = l.a;
+    k.b = l.b;
+    k.m = l.m;
+    k.visibility = l.visibility;
+    const bool partial = l.visibility == LinkVisibility::kPartial;
+    k.scale_a = partial ? l.fmax_a : *std::max_element(l.fa.begin(), l.fa.end());
+    k.scale_b = partial ? l.fmax_b : *std::max_element(l.fb.begin(), l.fb.end());
+    quantize(l.fa, k.scale_a, k.qa);
+    quantize(l.fb, k.scale_b, k.qb);
+    return k;
+  }
+  ElementLink expand() const {
+    ElementLink l;
+    l.a = a;
+    l.b = b;
+    l.m = m;
+    l.visibility = visibility;
+    const bool partial = visibility == LinkVisibility::kPartial;
+    l.fmax_a = partial ? scale_a : 0.0f;
+    l.fmax_b = partial ? scale_b : 0.0f;
+    for (int k = 0; k < kOraclePoints; ++k) {
+      l.fa[k] = static_cast<float>(qa[k] * (static_cast<double>(scale_a) / kFull));
+      l.fb[k] = static_cast<float>(qb[k] * (static_cast<double>(scale_b) / kFull));
+    }
+    return l;
+  }
+  void swap_ends() {
+    std::swap(a, b);
+    std::swap(scale_a, scale_b);
+    std::swap(qa, qb);
+  }
+
+ private:
+  static constexpr double kFull = 65535.0;
+  static void quantize(const std::array<float, kOraclePoints>& f, float scale,
+                       std::array<std::uint16_t, kOraclePoints>& q) {
+    for (int k = 0; k < kOraclePoints; ++k) {
+      const double x = scale > 0.0f ? std::clamp(f[k] / static_cast<double>(scale), 0.0, 1.0) : 0.0;
+      q[k] = static_cast<std::uint16_t>(std::lround(x * kFull));
+    }
+  }
+};
+static_assert(sizeof(KeptLink) == 44, "a kept link is 44 bytes");
+
 namespace {
 
 // A convex polygon of at most 8 corners on the stack (an element has 4; one clip adds 1).
@@ -159,7 +217,8 @@ std::vector<double> guard_weights(const std::vector<double>& area, const std::ve
     if (flux >= room) {
       w = hi;  // no water level keeps it: every leaf shoots its whole flux
     } else {
-      for (int step = 0; step < 60; ++step) (shot(0.5 * (lo + hi)) < flux ? lo : hi) = 0.5 * (lo + hi);
+      for (int step = 0; step < 60; ++step)
+        (shot(0.5 * (lo + hi)) < flux ? lo : hi) = 0.5 * (lo + hi);
       w = hi;
     }
   }
@@ -297,9 +356,10 @@ class HierarchyBuilder {
   // With lobes: the root form factors of the current links, the transfer (once, after the
   // first pass) and the operator's specular part (eq. H3).
   void attach_specular();
-  // The links as the hierarchy keeps them (LinkedPair), from links_; after the last pass, links_
-  // is freed.
-  void publish_links(bool last);
+  // The links as the hierarchy keeps them (LinkedPair), from links_, which is then freed: once,
+  // when no later pass will judge them again. Before that the hierarchy holds no copy of them
+  // (on the mirror cube, 5 MB at the build's peak).
+  void publish_links();
   int solve(HierarchyPass& pass);
   // S_{i->k} of the last solve (0 where there is no such link).
   Eigen::Array3d specular_toward(PatchId i, PatchId k) const {
@@ -317,14 +377,15 @@ class HierarchyBuilder {
   const HierarchyOptions& o_;
   ElementHierarchy& h_;
   std::vector<Element>& el_;
-  std::vector<double> min_size_;            // per root
-  std::vector<Eigen::Array3d> rho_, b_;     // per element: reflectance, current radiosity
+  std::vector<double> min_size_;         // per root
+  std::vector<Eigen::Array3d> rho_, b_;  // per element: reflectance, current radiosity
   // Links in chunks, each as one batch of refine judged them, never one vector regrown: on the
   // mirror cube a regrown copy of the links beside the old one was the build's peak.
-  using LinkChunks = std::vector<std::vector<ElementLink>>;
+  using LinkChunks = std::vector<std::vector<KeptLink>>;
   LinkChunks links_;    // the links so far
   LinkChunks pending_;  // judged to link, form factor still to compute
   std::int64_t link_count() const {
+    if (links_.empty()) return static_cast<std::int64_t>(h_.links_.size());  // published
     std::int64_t n = 0;
     for (const auto& chunk : links_) n += static_cast<std::int64_t>(chunk.size());
     return n;
@@ -588,13 +649,13 @@ void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& 
       }
       pass.visibility_tests += probes;
       h_.stats_.oracle_rays += rays;
-      std::vector<ElementLink> chunk;
+      std::vector<KeptLink> chunk;
       chunk.reserve(static_cast<std::size_t>(std::count_if(
           outcome.begin(), outcome.end(), [](const Outcome& o) { return o.decision == kLink; })));
       for (std::int64_t k = 0; k < n; ++k) {
         decided[first + k] = {outcome[k].decision, outcome[k].link.visibility};
         if (outcome[k].decision != kLink) continue;
-        chunk.push_back(outcome[k].link);
+        chunk.push_back(KeptLink::keep(outcome[k].link));
         chunk.back().m = candidates[first + k].m;
       }
       if (!chunk.empty()) pending_.push_back(std::move(chunk));
@@ -633,7 +694,7 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
     const auto count = static_cast<std::int64_t>(chunk.size());
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : rays)
     for (std::int64_t k = 0; k < count; ++k) {
-      ElementLink& l = chunk[k];
+      KeptLink& l = chunk[k];
       if (l.m >= 0.0f) continue;  // judged again after its rays and kept: its form factor is known
       // Integrate over the smaller element, as the uniform mesh does (with its key for two roots,
       // so that a tree of one level reproduces the uniform system exactly).
@@ -651,10 +712,7 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
       const double g = pair_area_form_factor(ex.shape, el_[y].shape, &caster_, o_.form_factors,
                                              pair_key(x, y), &r, exposure_of(x));
       rays += r;
-      if (x != l.a) {
-        std::swap(l.a, l.b);
-        std::swap(l.fa, l.fb);
-      }
+      if (x != l.a) l.swap_ends();
       l.m = g > 0.0 && ex.exposed > 0.0 ? static_cast<float>(g / ex.exposed) : 0.0f;
       if (k % 256 == 0) progress.advance(256);
     }
@@ -663,7 +721,8 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
   h_.stats_.form_factor_rays += rays;
   // Into the links chunk by chunk, without a copy of them.
   for (auto& chunk : pending_) {
-    std::erase_if(chunk, [](const ElementLink& l) { return !(l.m > 0.0f); });
+    std::erase_if(chunk, [](const KeptLink& l) { return !(l.m > 0.0f); });
+    chunk.shrink_to_fit();
     if (!chunk.empty()) links_.push_back(std::move(chunk));
   }
   LinkChunks().swap(pending_);
@@ -705,7 +764,6 @@ void HierarchyBuilder::make_operator() {
   op->node_leaf_.assign(n, -1);
   op->exposed_.resize(n);
   h_.leaf_element_.clear();
-  h_.leaves_.patches.clear();
   for (std::int32_t k = 0; k < n; ++k) {
     Element& e = el_[node_element_[k]];
     op->parent_[k] = e.parent < 0 ? -1 : node_of[e.parent];
@@ -719,10 +777,8 @@ void HierarchyBuilder::make_operator() {
       op->leaf_node_.push_back(k);
       op->rho_.push_back(rho_[node_element_[k]].cast<float>());
       h_.leaf_element_.push_back(node_element_[k]);
-      h_.leaves_.patches.push_back(e.shape);
     }
   }
-  h_.leaves_.scene_diameter = roots_.scene_diameter;
   // Link rows (eq. H2): F_ab = m, F_ba = m A'_a / A'_b, from one etendue G = A'_a m, each with
   // the slopes of its linear function over the receiver.
   std::vector<std::int64_t> count(n + 1, 0);
@@ -755,7 +811,8 @@ void HierarchyBuilder::make_operator() {
   };
   std::vector<std::int64_t> fill(f.start.begin(), f.start.end() - 1);
   for (const auto& chunk : links_)
-    for (const auto& l : chunk) {
+    for (const KeptLink& kept : chunk) {
+      const ElementLink l = kept.expand();
       const std::int32_t ra = node_of[l.a], rb = node_of[l.b];
       const double aa = el_[l.a].exposed, ab = el_[l.b].exposed;
       const double g = aa * l.m;  // the etendue / pi
@@ -841,13 +898,13 @@ void HierarchyBuilder::make_operator() {
 int HierarchyBuilder::solve(HierarchyPass& pass) {
   const Stopwatch t0;
   const HierarchicalOperator& op = *h_.op_;
-  const auto leaves = static_cast<Eigen::Index>(h_.leaves_.size());
+  const auto leaves = static_cast<Eigen::Index>(h_.num_leaves());
   const RootSpecular* sp = op.specular();
   const Eigen::Index size = op.size();
   Field e = Field::Zero(size, 3);
   std::vector<double> w(size);  // flux weights over pi: A'_l, then tau_ik / pi
   for (Eigen::Index l = 0; l < leaves; ++l) {
-    e.row(l) = h_.leaves_[l].emission.matrix().transpose();
+    e.row(l) = h_.leaf(static_cast<int>(l)).emission.matrix().transpose();
     w[l] = el_[h_.leaf_element_[l]].exposed;
   }
   for (Eigen::Index l = leaves; l < size; ++l) w[l] = sp->flux_weight[l - leaves] / kPi;
@@ -1002,9 +1059,9 @@ void HierarchyBuilder::run() {
       if (!linked[e.root]) e.exposed = 0.0;
   }
   make_operator();
-  publish_links(o_.passes == 0);
+  if (o_.passes == 0) publish_links();
   attach_specular();
-  pass.links = static_cast<long long>(h_.links_.size());
+  pass.links = link_count();
   pass.elements = static_cast<long long>(el_.size());
   pass.leaves = h_.num_leaves();
   if (o_.passes > 0) solve(pass);
@@ -1024,20 +1081,21 @@ void HierarchyBuilder::run() {
     for (auto& chunk : links_) {  // the links kept, compacted in place (no copy of them all)
       std::size_t kept = 0;
       for (std::size_t k = 0; k < chunk.size(); ++k) {
-        const ElementLink l = chunk[k];
+        const ElementLink l = chunk[k].expand();
         if (accurate(l)) {
-          chunk[kept++] = l;
+          chunk[kept++] = chunk[k];
         } else if (l.visibility == LinkVisibility::kUntested) {
           again.push_back({l.a, l.b, l.m});
         } else {
           const std::int32_t s = split_choice(l.a, l.b);
           if (s < 0)
-            chunk[kept++] = l;
+            chunk[kept++] = chunk[k];
           else
             split_links.push_back({s, s == l.a ? l.b : l.a, l.visibility});
         }
       }
       chunk.resize(kept);
+      chunk.shrink_to_fit();  // one chunk's copy at a time; the slack was 5 MB on the mirror cube
     }
     std::erase_if(links_, [](const auto& chunk) { return chunk.empty(); });
     if (again.empty() && split_links.empty()) break;
@@ -1050,44 +1108,51 @@ void HierarchyBuilder::run() {
     refine(std::move(again), next);
     link_form_factors(next);
     make_operator();
-    publish_links(p == o_.passes);
+    if (p == o_.passes) publish_links();
     attach_specular();
-    next.links = static_cast<long long>(h_.links_.size());
+    next.links = link_count();
     next.elements = static_cast<long long>(el_.size());
     next.leaves = h_.num_leaves();
     if (p < o_.passes) solve(next);
     st.passes.push_back(next);
   }
-  LinkChunks().swap(links_);  // the oracle's data, where the passes ended early
+  if (!links_.empty()) publish_links();  // the passes ended early
+  el_.shrink_to_fit();  // grown by doubling: up to 5 MB of slack on the mirror cube's gather
   h_.build_corner_averages(roots_);
   h_.build_lookup(roots_);
   st.seconds = t_start.seconds();
 }
 
-void HierarchyBuilder::publish_links(bool last) {
+void HierarchyBuilder::publish_links() {
   std::vector<LinkedPair> pairs;
   pairs.reserve(static_cast<std::size_t>(link_count()));
   for (const auto& chunk : links_)
-    for (const ElementLink& l : chunk) pairs.push_back({l.a, l.b, l.m});
+    for (const KeptLink& l : chunk) pairs.push_back({l.a, l.b, l.m});
   h_.links_.swap(pairs);
-  // No later pass judges them again: what the oracle measured goes before the specular part is
-  // built (on the mirror cube, 28 MB of links beside its 12 MB).
-  if (last) LinkChunks().swap(links_);
+  // What the oracle measured goes before the last specular part is built (on the mirror cube,
+  // 28 MB of links beside its 12 MB).
+  LinkChunks().swap(links_);
 }
 
 void HierarchyBuilder::attach_specular() {
   if (!lobes_) return;
   HierarchyStats& st = h_.stats_;
   Stopwatch watch;
-  h_.root_ff_ = root_form_factors(h_, materials_);
+  h_.root_ff_ = root_form_factors(h_, materials_, [&](const LinkVisitor& visit) {
+    if (links_.empty()) {  // published
+      for (const LinkedPair& l : h_.links_) visit(l);
+      return;
+    }
+    for (const auto& chunk : links_)
+      for (const KeptLink& l : chunk) visit({l.a, l.b, l.m});
+  });
   st.root_form_factor_seconds += watch.lap();
   st.root_form_factors = h_.root_ff_.f.nnz();
   // The transfer once, on the first pass's root form factors: later passes split links but
   // keep their pairs of roots, and R_jik is a fraction (each row at most 1) whatever form
   // factors later normalise the flux weights by.
   if (!transfer_done_) {
-    h_.transfer_ =
-        compute_specular_transfer(roots_, materials_, h_.root_ff_, caster_, o_.specular);
+    h_.transfer_ = compute_specular_transfer(roots_, materials_, h_.root_ff_, caster_, o_.specular);
     transfer_done_ = true;
     st.transfer_seconds += watch.lap();
     st.transfer_entries = h_.transfer_.entries();
@@ -1125,7 +1190,7 @@ TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy>
   t.patch_emission_.resize(leaves);
   for (int l = 0; l < leaves; ++l) {
     t.layout_.flux_weight[l] = kPi * h.elements()[h.element_of_leaf(l)].exposed;
-    t.patch_emission_[l] = h.leaves()[l].emission;
+    t.patch_emission_[l] = h.leaf(l).emission;
   }
   // The specular links after the leaves (eq. H3), over root ids: link_start has the layout's
   // num_patches + 1 entries (there are at least as many leaves as roots), constant past the

@@ -8,7 +8,8 @@
 
 namespace polyrad {
 
-FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Material>& materials) {
+FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Material>& materials,
+                              const std::function<void(const LinkVisitor&)>& for_each_link) {
   const std::vector<Element>& el = h.elements();
   const PatchSet& roots = h.roots();
   const auto count = static_cast<std::int32_t>(h.num_roots());
@@ -17,13 +18,13 @@ FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Mater
   // G_ij = sum of A'_a F_ab over the links between the trees of i and j (eq. 4, the etendue
   // over pi): the finer the links, the finer the pair integral they sum to.
   std::vector<std::tuple<std::int32_t, std::int32_t, double>> g;
-  for (const LinkedPair& l : h.links()) {
+  for_each_link([&](const LinkedPair& l) {
     const std::int32_t ra = el[l.a].root, rb = el[l.b].root;
     const double etendue = el[l.a].exposed * static_cast<double>(l.m);
-    if (!(etendue > 0.0)) continue;
+    if (!(etendue > 0.0)) return;
     if (lobe[ra]) g.emplace_back(ra, rb, etendue);
     if (lobe[rb]) g.emplace_back(rb, ra, etendue);
-  }
+  });
   std::sort(g.begin(), g.end());
   FormFactors ff;
   ff.area.resize(count);
@@ -52,7 +53,8 @@ namespace {
 std::int64_t find_link(const RootSpecular& sp, PatchId i, PatchId k) {
   const auto first = sp.links.begin() + sp.link_start[i];
   const auto last = sp.links.begin() + sp.link_start[i + 1];
-  const auto it = std::lower_bound(first, last, k, [](const Link& l, PatchId key) { return l.to < key; });
+  const auto it =
+      std::lower_bound(first, last, k, [](const Link& l, PatchId key) { return l.to < key; });
   return it != last && it->to == k ? it - sp.links.begin() : -1;
 }
 

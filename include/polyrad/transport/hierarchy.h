@@ -72,17 +72,18 @@
 // Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
 // refinement costs ten point form factors and at most visibility_rays rays per candidate, and
 // each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 420 bytes per
-// element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 64
-// per link while building, 12 once built and 48 in T (both directions, five floats and an index
-// each); one application reads every link twice and each tree three times. Lobes add the
-// uniform mesh's transfer on the roots (2 x samples rays per facing pair into a reflector), 8
-// bytes per entry of a root link's row and 4 per element link entry of the trees that reflect
-// or receive specular light.
+// element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 44
+// per link while building (its oracle values in 16 bits), 12 once built and 48 in T (both
+// directions, five floats and an index each); one application reads every link twice and each tree
+// three times. Lobes add the uniform mesh's transfer on the roots (2 x samples rays per facing pair
+// into a reflector), 8 bytes per entry of a root link's row and 4 per element link entry of the
+// trees that reflect or receive specular light.
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -197,8 +198,8 @@ struct HierarchyStats {
 //       A'_k F_kj, so k receives exactly the flux tau_jk S_{j->k};
 //   (b) reflect: the specular rows read what arrives at i from root j along the links of i's
 //       tree, not B_j at the root's mean:
-//           I_ij = sum_{nodes r of i} (A'_r / A'_i) sum_{links r <- s, s in j} (F_rs m_s + c_rs . q_s)
-//           S_{i->k} = s_i sum_j (R_jik / F_ik) (I_ij + F_ij S_{j->i})
+//           I_ij = sum_{nodes r of i} (A'_r / A'_i) sum_{links r <- s, s in j} (F_rs m_s + c_rs .
+//           q_s) S_{i->k} = s_i sum_j (R_jik / F_ik) (I_ij + F_ij S_{j->i})
 //       (with leaves constant over j, I_ij = F_ij B_j and this is eq. 7).
 // Why it keeps section 5's bound: each unit of flux that reaches reflector i along a link is
 // split into d_i (its leaves' diffuse rows, eq. H2) and s_i sum_k R_jik <= s_i (its links), so a
@@ -297,10 +298,10 @@ class ElementHierarchy {
   const std::vector<Element>& elements() const { return elements_; }
   const std::vector<LinkedPair>& links() const { return links_; }
   int num_roots() const { return num_roots_; }
-  int num_leaves() const { return static_cast<int>(leaves_.size()); }
-  // The leaves as patches, in unknown order: what a caller that indexes unknowns by patch reads
-  // (the series' emission columns, patch tables).
-  const PatchSet& leaves() const { return leaves_; }
+  int num_leaves() const { return static_cast<int>(leaf_element_.size()); }
+  // Leaf l (unknown l) as a patch: what a caller that indexes unknowns by patch reads (the
+  // series' emission columns, patch tables). Its element's shape, not a copy of every leaf.
+  const Patch& leaf(int l) const { return elements_[leaf_element_[l]].shape; }
   std::int32_t element_of_leaf(int leaf) const { return leaf_element_[leaf]; }
   std::shared_ptr<const HierarchicalOperator> op() const { return op_; }
   const HierarchyStats& stats() const { return stats_; }
@@ -338,7 +339,6 @@ class ElementHierarchy {
   std::vector<Element> elements_;
   std::vector<LinkedPair> links_;
   std::vector<std::int32_t> leaf_element_;
-  PatchSet leaves_;
   const PatchSet* roots_ = nullptr;
   int num_roots_ = 0;
   std::shared_ptr<HierarchicalOperator> op_;
@@ -369,8 +369,12 @@ ElementHierarchy build_hierarchy(const PatchSet& roots, const std::vector<Materi
 // The form factors between the roots of a hierarchy that a specular transfer on the roots
 // needs (section 12.6): the rows of the roots whose material has a lobe, each F_ij the sum of
 // the etendues of the links between the two trees over A'_i (so a tree of one level gives the
-// uniform mesh's), and A' of every root. Other rows are empty. No rays.
-FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Material>& materials);
+// uniform mesh's), and A' of every root. Other rows are empty. No rays. The links are those
+// `for_each_link` hands its visitor, one call a link: the builder's own while it refines, the
+// hierarchy's links() once it is done.
+using LinkVisitor = std::function<void(const LinkedPair&)>;
+FormFactors root_form_factors(const ElementHierarchy& h, const std::vector<Material>& materials,
+                              const std::function<void(const LinkVisitor&)>& for_each_link);
 
 // The specular part of eq. H3 from the root form factors and the transfer computed on them
 // (compute_specular_transfer on the roots): the active links, their rows, both couplings.

@@ -105,7 +105,12 @@ struct RadiositySystem {
   const PatchSet& patches() const { return world->patches(); }
   // The patches the B unknowns belong to, one per B unknown: the hierarchy's leaves, or the
   // world's patches.
-  const PatchSet& unknown_patches() const { return hierarchy ? hierarchy->leaves() : patches(); }
+  Eigen::Index num_unknown_patches() const {
+    return hierarchy ? hierarchy->num_leaves() : static_cast<Eigen::Index>(patches().size());
+  }
+  const Patch& unknown_patch(Eigen::Index p) const {
+    return hierarchy ? hierarchy->leaf(static_cast<int>(p)) : patches()[p];
+  }
 
   RadiositySystem() = default;
   RadiositySystem(const RadiositySystem&) = delete;
