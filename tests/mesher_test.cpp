@@ -139,6 +139,24 @@ TEST(Mesher, SampleGivesThePointsParameters) {
       }
 }
 
+// A parallelogram's bilinear map is linear: its density is 1 everywhere; a trapezoid's is not.
+TEST(Mesher, ParallelogramsAreKnownByTheirCorners) {
+  const Patch square = test::make_quad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0});
+  const Patch sheared = test::make_quad({0, 0, 0}, {2, 0, 0}, {2.5, 1, 0.3}, {0.5, 1, 0.3});
+  const Patch trapezoid = test::make_quad({0, 0, 0}, {2, 0, 0}, {1.5, 1, 0}, {0, 1, 0});
+  Patch tri = test::make_quad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {1, 1, 0});
+  tri.corners = 3;
+  EXPECT_TRUE(square.is_parallelogram());
+  EXPECT_TRUE(sheared.is_parallelogram());
+  EXPECT_FALSE(trapezoid.is_parallelogram());
+  EXPECT_FALSE(tri.is_parallelogram());
+  for (const Patch* p : {&square, &sheared, &trapezoid}) {
+    double density = 0.0;
+    p->sample(Vec2(0.1, 0.8), &density);
+    EXPECT_EQ(std::abs(density - 1.0) < 1e-12, p->is_parallelogram());
+  }
+}
+
 TEST(Mesher, UnsampleInvertsSample) {
   // Exposure grids are read at a point's unit-square coordinates (exposure.h): a trapezoid, a
   // non-planar quad and a triangle, with points off a flat patch's plane projected onto it.

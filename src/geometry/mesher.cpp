@@ -141,12 +141,14 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
       FacePatches f;
       f.object = object;
       Vec3 area2 = Vec3::Zero();
-      for (size_t k = 1; k + 1 < face.size(); ++k) area2 += (face[k] - face[0]).cross(face[k + 1] - face[0]);
+      for (size_t k = 1; k + 1 < face.size(); ++k)
+        area2 += (face[k] - face[0]).cross(face[k + 1] - face[0]);
       for (const Vec3& v : face) f.centroid += v / static_cast<double>(face.size());
       f.normal = area2.norm() > 0.0 ? Vec3(area2.normalized()) : Vec3::Zero();
       if (face.size() == 4) {
         f.patches =
-            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()), o.patch_size) *
+            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()),
+                    o.patch_size) *
             cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
       } else {
         for (size_t k = 1; k + 1 < face.size(); ++k) {
@@ -223,6 +225,11 @@ Vec2 Patch::unsample(const Vec3& x) const {
     if (delta.squaredNorm() < 1e-24) break;
   }
   return Vec2(unit(s.x()), unit(s.y()));
+}
+
+bool Patch::is_parallelogram() const {
+  if (is_triangle()) return false;
+  return (corner[0] + corner[2] - corner[1] - corner[3]).norm() <= 1e-12 * diameter();
 }
 
 double Patch::diameter() const {

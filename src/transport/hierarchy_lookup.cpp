@@ -121,8 +121,7 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
   grid_.clear();
   for (std::size_t r = 0; r < roots.size(); ++r) {
     const Patch& p = roots[r];
-    const double skew = (p.corner[0] + p.corner[2] - p.corner[1] - p.corner[3]).norm();
-    skewed_[r] = !p.is_triangle() && skew > 1e-12 * p.diameter();
+    skewed_[r] = !p.is_triangle() && !p.is_parallelogram();
     // The grid of a quad's tree at its leaves' deepest level: each cell the element the descent
     // reaches at that level. The splits halve the parameters, so a cell is the floor of q times
     // 2^depth, exactly as the descent compares q with the midpoints.

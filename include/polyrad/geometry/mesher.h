@@ -39,6 +39,9 @@ struct Patch {
   std::array<std::int32_t, 4> vertex_id{};
 
   bool is_triangle() const { return corners == 3; }
+  // A quad whose opposite sides are parallel and equal (to 1e-12 of its diameter): its bilinear
+  // map is then linear, and the ray caster's (u, v) of a hit are point()'s.
+  bool is_parallelogram() const;
   // The point with parameters (u, v): bilinear for a quad (corner 0 at (0,0), 1 at (1,0),
   // 2 at (1,1), 3 at (0,1)), barycentric for a triangle (corner 1 at u = 1, corner 2 at v = 1).
   // For triangles and parallelograms this is also the ray caster's parametrisation of a hit;
