@@ -23,6 +23,7 @@
 #include <optional>
 
 #include "gather_terms.h"
+#include "polyrad/transport/hierarchy.h"
 #include "polyrad/util/sampling.h"
 
 namespace polyrad::gather_detail {
@@ -329,8 +330,8 @@ class FinalGatherer {
       ++rays;
       if (c_.caster.segment_occluded(sh.x, sh.i, r.point, r.patch)) continue;
       const double cos_x = seen->cos_x, pdf = seen->pdf;
-      const double w = kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) /
-                       (pdf * count);
+      const double w =
+          kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) / (pdf * count);
       add_link(r.patch, sh.i, scaled(sh.weight * sh.m.diffuse, w), terms);
     }
     return rays;
@@ -416,8 +417,7 @@ class FinalGatherer {
     if (c_.patches[j].emitter) {
       double mis = 1.0;
       if (light_count_ > 0)
-        mis = power_heuristic(count * pdf,
-                              light_count_ * solid_angle_pdf(c_.lights, h, sh.x, dir));
+        mis = power_heuristic(count * pdf, light_count_ * solid_angle_pdf(c_.lights, h, sh.x, dir));
       if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
     }
     // The specular link toward i, and the diffuse part's reflected light: from the mesh,
@@ -445,14 +445,20 @@ class FinalGatherer {
   }
 
   // How much of the diffuse light reflected at h is gathered again there instead of read from
-  // the mesh: 1 within near_distance patch diameters of j from x, 0 beyond twice that, linear
-  // between. A patch's B averages its light over the patch: seen from closer than its size, the
-  // average is the wrong value (a floor patch half in a block's contact shadow, read from the
-  // block's base), which a gather one bounce further does not suffer.
+  // the mesh: 1 within near_distance diameters of the unknown read at h (patch j, or the leaf
+  // under h) from x, 0 beyond twice that, linear between. An unknown's B averages its light over
+  // its area: seen from closer than its size, the average is the wrong value (a floor patch half
+  // in a block's contact shadow, read from the block's base), which a gather one bounce further
+  // does not suffer. A leaf is never larger than its root, so a hit beyond twice the root's
+  // size needs no lookup.
   double near_share(const Vec3& x, const Hit& h) const {
     if (near_count_ == 0 || o_.near_distance <= 0.0) return 0.0;
-    const double r = (h.position - x).norm() / (o_.near_distance * c_.patches[h.patch].diameter());
-    return std::clamp(2.0 - r, 0.0, 1.0);
+    const double d = (h.position - x).norm() / o_.near_distance;
+    double size = c_.patches[h.patch].diameter();
+    if (d >= 2.0 * size) return 0.0;
+    if (const ElementHierarchy* t = c_.layout.hierarchy.get())
+      size = t->elements()[t->leaf_at(h.patch, h.u, h.v).element].shape.diameter();
+    return std::clamp(2.0 - d / size, 0.0, 1.0);
   }
 
   // The second gather at a near hit h on j, seen from direction wo (world): w d_j times the
@@ -517,8 +523,8 @@ class FinalGatherer {
 
   const GatherContext& c_;
   const GatherOptions& o_;
-  const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_,
-      reflector_side_, near_side_, near_count_;
+  const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
+      near_side_, near_count_;
 };
 
 }  // namespace

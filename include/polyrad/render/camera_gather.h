@@ -87,10 +87,11 @@ struct GatherOptions {
   // mirrors), finer than pixel_grid because a lamp's edge pixels are far brighter than its
   // surroundings.
   int emission_grid = 8;
-  // Final gather: where a BRDF sample lands within near_distance diameters of the patch it
-  // meets, the diffuse light reflected there is gathered again (near_samples light points and
-  // cosine samples, rounded to a square; 0: never) instead of read from that patch's B; blended
-  // linearly to reading B at twice the distance.
+  // Final gather: where a BRDF sample lands within near_distance diameters of the unknown it
+  // reads (the patch it meets, or on a hierarchy the leaf under the hit), the diffuse light
+  // reflected there is gathered again (near_samples light points and cosine samples, rounded to
+  // a square; 0: never) instead of read from that unknown's B; blended linearly to reading B at
+  // twice the distance.
   int near_samples = 4;
   double near_distance = 1.0;
   // Final gather: points on the reflectors (patches whose material has a lobe and that send
@@ -123,7 +124,7 @@ class GatherRows;
 struct Gather {
   int width = 0, height = 0;
   GatherOptions options;  // what built it
-  Csr<Rgbf> g;  // row = pixel (row-major from the top-left), column = unknown
+  Csr<Rgbf> g;            // row = pixel (row-major from the top-left), column = unknown
   Csr<Rgbf> e;  // final gather: row = pixel, column = patch (its emission); empty otherwise
   long long rays = 0;
   double seconds = 0.0;
@@ -134,7 +135,8 @@ struct Gather {
 
 // The gather of the world's camera, or of another camera (a solution operator relit from
 // elsewhere), built whole.
-Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options = {});
+Gather build_gather(const World& world, const UnknownLayout& layout,
+                    const GatherOptions& options = {});
 Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
                     const GatherOptions& options = {});
 
