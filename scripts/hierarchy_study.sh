@@ -10,7 +10,9 @@
 #                hierarchy carries them on root links)
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh);
 # $UNIFORM_SIZES and $TOLERANCES override the runs (default "50 25 17" and "0.2 0.1 0.05 0.02");
-# $GATHER the camera gather of every run (default final; patch reads the mesh at each pixel).
+# $GATHER the camera gather of every run (default final; patch reads the mesh at each pixel);
+# $IMAGE the format each run writes (default exr; pfm needs no codec module, whose 110 MiB
+# would otherwise sit in every run's peak).
 # Also hierarchy.png: links, peak memory and wall time against elements for both meshes, and
 # the image error against wall time.
 set -euo pipefail
@@ -32,7 +34,7 @@ gather="${GATHER:-final}"
 run() {  # run TAG ARGS...: render, time it, compare with the reference
   local tag="$1"
   shift
-  local img="$out/$name-$tag.exr"
+  local img="$out/$name-$tag.${IMAGE:-exr}"
   /usr/bin/time -f "%e" -o "$out/$name-$tag.wall" "$POLYRAD" --quiet render "$scene" --tolerance 1e-6 \
     --gather "$gather" -o "$img" --report "$out/$name-$tag.json" "$@"
   "$POLYRAD" --quiet compare "$img" "$ref" --scene "$scene" --report "$out/$name-$tag-cmp.json" \
