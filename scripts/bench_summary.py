@@ -2,8 +2,9 @@
 """Summarises the Google Benchmark JSON that scripts/bench.sh writes into a markdown report.
 
     scripts/bench_summary.py out/bench        # reads transport.json, series.json,
-                                              # form_factors.json and serve.json; prints the
-                                              # report and writes out/bench/summary.md
+                                              # form_factors.json, serve.json and
+                                              # hierarchy.json; prints the report and writes
+                                              # out/bench/summary.md
 
 Figures are medians of iterations timed one by one (the *median_ms* and *_per_second counters)
 rather than benchmark's means, which a burst of load from elsewhere inflates. Each target
@@ -29,6 +30,7 @@ SPEEDUP_LIMIT = 1000.0  # iterative solve + gather time / product time, at least
 OVERHEAD_LIMIT_MS = 2.0  # relight request latency - product - PNG encoding, at most
 IMAGES_PER_SECOND_LIMIT = 30.0  # images a second served to 4 clients, at least
 RSS_GROWTH_LIMIT_MIB = 4.0  # resident memory growth over 9,000 requests ("flat"), at most
+HIERARCHY_LIMIT = 0.1   # hierarchical render / uniform patch size 17 render, time and peak, at most
 
 
 def load(path):
@@ -428,20 +430,51 @@ def serve_section(rep, verdicts):
     return out
 
 
+def hierarchy_section(rep, verdicts):
+    out = ["## The hierarchical mesh (`hierarchy_bench`)", ""]
+    if rep is None:
+        return out + ["(no hierarchy.json)", ""]
+    rows = []
+    for a, e in runs(rep, "mirror_cube_render"):
+        if failed(e):
+            continue
+        for what, key in (("time", "time_ratio"), ("peak memory", "memory_ratio")):
+            r = e[key]
+            v = verdict(r <= HIERARCHY_LIMIT, "%.3f %s %.1f" % (r, "<=" if r <= HIERARCHY_LIMIT else ">",
+                                                                  HIERARCHY_LIMIT))
+            verdicts.append(("mirror cube: hierarchical render's %s over uniform 17's" % what, v))
+        rows.append(["%.1f s" % e["hierarchical_s"], "%.1f s" % e["uniform17_s"],
+                     "**%.3f**" % e["time_ratio"], mib(e["hierarchical_peak_bytes"]),
+                     mib(e["uniform17_peak_bytes"]), "**%.3f**" % e["memory_ratio"]])
+    out.append("cornell-mirror-cube, `polyrad render --gather final` writing a .pfm, each render a process "
+               "of its own, alternated; medians of the iterations. Hierarchical at tau 0.05 against uniform "
+               "patch size 17. Target: at most %.1f of the time and of the peak (the image error, no worse, "
+               "is the README's hierarchy study)." % HIERARCHY_LIMIT)
+    out.append("")
+    out.append(table(["hierarchical", "uniform 17", "time ratio", "hierarchical peak", "uniform 17 peak",
+                      "memory ratio"], rows))
+    out.append("")
+    return out
+
+
 def main():
     directory = sys.argv[1] if len(sys.argv) > 1 else "out/bench"
     transport = load(os.path.join(directory, "transport.json"))
     series = load(os.path.join(directory, "series.json"))
     form_factors = load(os.path.join(directory, "form_factors.json"))
     serve = load(os.path.join(directory, "serve.json"))
-    if transport is None and series is None and form_factors is None and serve is None:
-        sys.exit("bench_summary: no transport.json, series.json, form_factors.json or serve.json in " + directory)
+    hierarchy = load(os.path.join(directory, "hierarchy.json"))
+    reports = [transport, series, form_factors, serve, hierarchy]
+    if all(r is None for r in reports):
+        sys.exit("bench_summary: no transport.json, series.json, form_factors.json, serve.json or "
+                 "hierarchy.json in " + directory)
     verdicts = []
-    lines = ["# polyrad benchmarks", "", machine([transport, series, form_factors, serve]), ""]
+    lines = ["# polyrad benchmarks", "", machine(reports), ""]
     lines += transport_section(transport, verdicts)
     lines += series_section(series, verdicts)
     lines += form_factor_section(form_factors, verdicts)
     lines += serve_section(serve, verdicts)
+    lines += hierarchy_section(hierarchy, verdicts)
     lines += ["## Targets", "", table(["target", "result"], verdicts), ""]
     text = "\n".join(lines)
     print(text)
