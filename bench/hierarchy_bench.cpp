@@ -16,8 +16,11 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -49,14 +52,42 @@ ProcessRun run_polyrad(const std::vector<std::string>& args) {
     throw std::runtime_error(std::string("cannot start ") + POLYRAD_CLI);
   int status = 0;
   struct rusage usage {};
-  if (wait4(pid, &status, 0, &usage) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("polyrad render failed");
+  pid_t waited = 0;
+  do {
+    waited = wait4(pid, &status, 0, &usage);
+  } while (waited < 0 && errno == EINTR);
+  if (waited != pid) throw std::runtime_error("lost the polyrad process");
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error(
+        WIFEXITED(status)
+            ? "polyrad render exited with " + std::to_string(WEXITSTATUS(status))
+            : "polyrad render was killed by signal " + std::to_string(WTERMSIG(status)));
   return {watch.seconds(), static_cast<double>(usage.ru_maxrss) * 1024.0};  // kilobytes on Linux
 }
 
+// A folder of this run's own under the temporary directory, removed with it.
+struct ScratchDir {
+  fs::path path;
+  ScratchDir() {
+    std::string pattern = (fs::temp_directory_path() / "polyrad-hierarchy-bench-XXXXXX").string();
+    if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot make a temporary folder");
+    path = pattern;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
 void mirror_cube_render(benchmark::State& state) {
-  const fs::path out = fs::temp_directory_path() / "polyrad-hierarchy-bench";
-  fs::create_directories(out);
+  std::optional<ScratchDir> scratch;
+  try {
+    scratch.emplace();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  const fs::path& out = scratch->path;
   const std::string scene = std::string(POLYRAD_SCENES_DIR) + "/cornell-mirror-cube.json";
   const std::vector<std::string> common = {"render", scene, "--gather", "final"};
   auto with = [&](std::vector<std::string> mesh, const char* image) {
@@ -84,7 +115,6 @@ void mirror_cube_render(benchmark::State& state) {
     state.SkipWithError(e.what());
     return;
   }
-  fs::remove_all(out);
   const double ht = median(h_time), ut = median(u_time), hp = median(h_peak), up = median(u_peak);
   state.counters["hierarchical_s"] = ht;
   state.counters["uniform17_s"] = ut;

@@ -458,6 +458,7 @@ class FinalGatherer {
     if (d >= 2.0 * size) return 0.0;
     if (const ElementHierarchy* t = c_.layout.hierarchy.get())
       size = t->elements()[t->leaf_at(h.patch, h.u, h.v).element].shape.diameter();
+    if (!(size > 0.0)) return 0.0;  // a degenerate patch: read it
     return std::clamp(2.0 - d / size, 0.0, 1.0);
   }
 
