@@ -389,8 +389,8 @@ class HierarchyBuilder {
   LinkChunks links_;    // the links so far
   LinkChunks pending_;  // judged to link, form factor still to compute
   std::int64_t link_count() const {
-    if (links_.empty()) return static_cast<std::int64_t>(h_.links_.size());  // published
-    std::int64_t n = 0;
+    // Before publish_links the hierarchy holds none of them, after it the builder none.
+    auto n = static_cast<std::int64_t>(h_.links_.size());
     for (const auto& chunk : links_) n += static_cast<std::int64_t>(chunk.size());
     return n;
   }
@@ -1143,10 +1143,7 @@ void HierarchyBuilder::attach_specular() {
   HierarchyStats& st = h_.stats_;
   Stopwatch watch;
   h_.root_ff_ = root_form_factors(h_, materials_, [&](const LinkVisitor& visit) {
-    if (links_.empty()) {  // published
-      for (const LinkedPair& l : h_.links_) visit(l);
-      return;
-    }
+    for (const LinkedPair& l : h_.links_) visit(l);  // published (then links_ is empty)
     for (const auto& chunk : links_)
       for (const KeptLink& l : chunk) visit({l.a, l.b, l.m});
   });
