@@ -2,7 +2,6 @@
 #include "polyrad/transport/transport.h"
 
 #include <algorithm>
-#include <map>
 
 #include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/specular_transfer.h"
@@ -33,35 +32,66 @@ void compact(std::vector<Entry>& row) {
 
 // Which links i -> k carry specular radiance: a fixed point over the transfer entries. A link
 // is active when some entry (j, i, k) has a source that can be bright: B_j (if j emits or
-// reflects diffusely) or an active link j -> i.
-std::map<std::pair<PatchId, PatchId>, LinkId> active_links(const PatchSet& patches,
-                                                           const std::vector<Material>& materials,
-                                                           const FormFactors& ff,
-                                                           const SpecularTransfer& st) {
+// reflects diffusely) or an active link j -> i. The candidates, every (i, k) some entry names,
+// are kept per reflector sorted by k, so a lookup is a binary search in one short row (a
+// std::map of the room's half million links cost 3 s a call). Sorted by (from, to).
+std::vector<Link> active_links(const PatchSet& patches, const std::vector<Material>& materials,
+                               const FormFactors& ff, const SpecularTransfer& st) {
   auto b_can_shine = [&](PatchId j) {
     // An emitter counts even when dark: relighting may switch it on.
     const Patch& p = patches[j];
     return p.emitter || materials[p.material].diffuse.maxCoeff() > 0.0;
   };
-  std::map<std::pair<PatchId, PatchId>, LinkId> active;
-  bool changed = true;
-  while (changed) {
-    changed = false;
-    for (PatchId i = 0; i + 1 < static_cast<PatchId>(st.start.size()); ++i) {
-      for (auto e = st.start[i]; e < st.start[i + 1]; ++e) {
-        PatchId j = st.from[e], k = st.to[e];
-        if (st.fraction[e] <= 0.0f || ff.at(i, k) <= 0.0) continue;
-        if (active.count({i, k})) continue;
-        if (b_can_shine(j) || active.count({j, i})) {
-          active.emplace(std::make_pair(i, k), 0);
-          changed = true;
-        }
+  const auto n = static_cast<PatchId>(st.start.empty() ? 0 : st.start.size() - 1);
+  std::vector<std::int64_t> row_start(n + 1, 0);
+  std::vector<PatchId> to;  // candidate k of each reflector, sorted
+  for (PatchId i = 0; i < n; ++i) {
+    const auto first = static_cast<std::ptrdiff_t>(to.size());
+    for (auto e = st.start[i]; e < st.start[i + 1]; ++e)
+      if (!(st.fraction[e] <= 0.0f)) to.push_back(st.to[e]);
+    std::sort(to.begin() + first, to.end());
+    to.erase(std::unique(to.begin() + first, to.end()), to.end());
+    to.erase(std::remove_if(to.begin() + first, to.end(),
+                            [&](PatchId k) { return ff.at(i, k) <= 0.0; }),
+             to.end());
+    row_start[i + 1] = static_cast<std::int64_t>(to.size());
+  }
+  auto index_of = [&](PatchId i, PatchId k) -> std::int64_t {
+    if (i < 0 || i >= n) return -1;
+    const auto first = to.begin() + row_start[i], last = to.begin() + row_start[i + 1];
+    const auto it = std::lower_bound(first, last, k);
+    return it != last && *it == k ? it - to.begin() : -1;
+  };
+  // Sources that can shine light their links at once; the others (pure reflectors) wait on
+  // the link that feeds them, and the few such entries are swept until nothing changes (as many
+  // rounds as the longest chain of reflectors, plus one).
+  std::vector<char> active(to.size(), 0);
+  std::vector<std::pair<std::int64_t, std::int64_t>> waiting;  // (link, the link it waits on)
+  for (PatchId i = 0; i < n; ++i)
+    for (auto e = st.start[i]; e < st.start[i + 1]; ++e) {
+      if (st.fraction[e] <= 0.0f) continue;
+      const std::int64_t c = index_of(i, st.to[e]);
+      if (c < 0) continue;  // no form factor F_ik
+      const PatchId j = st.from[e];
+      if (b_can_shine(j)) {
+        active[c] = 1;
+      } else if (const std::int64_t source = index_of(j, i); source >= 0) {
+        waiting.emplace_back(c, source);
       }
     }
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const auto& [c, source] : waiting)
+      if (!active[c] && active[source]) {
+        active[c] = 1;
+        changed = true;
+      }
   }
-  LinkId next = 0;
-  for (auto& [key, id] : active) id = next++;  // map order: sorted by (i, k)
-  return active;
+  std::vector<Link> links;
+  for (PatchId i = 0; i < n; ++i)
+    for (auto c = row_start[i]; c < row_start[i + 1]; ++c)
+      if (active[c]) links.push_back(Link{i, to[c]});
+  return links;
 }
 
 // Rows of the links of reflector i, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}) with
@@ -93,10 +123,7 @@ void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId 
 std::vector<Link> active_specular_links(const PatchSet& patches,
                                         const std::vector<Material>& materials,
                                         const FormFactors& ff, const SpecularTransfer& st) {
-  const auto active = active_links(patches, materials, ff, st);
-  std::vector<Link> links(active.size());
-  for (const auto& [key, id] : active) links[id] = Link{key.first, key.second};
-  return links;
+  return active_links(patches, materials, ff, st);
 }
 
 Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
@@ -123,12 +150,9 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
     }
   }
 
-  std::map<std::pair<PatchId, PatchId>, LinkId> active;
-  if (specular) active = active_links(patches, materials, ff, *specular);
   auto& links = t.layout_.links;
   auto& link_start = t.layout_.link_start;
-  links.resize(active.size());
-  for (const auto& [key, id] : active) links[id] = Link{key.first, key.second};
+  if (specular) links = active_links(patches, materials, ff, *specular);
   link_start.assign(n + 1, 0);
   for (const auto& l : links) ++link_start[l.from + 1];
   for (PatchId i = 0; i < n; ++i) link_start[i + 1] += link_start[i];
