@@ -34,7 +34,7 @@ void compact(std::vector<Entry>& row) {
 // is active when some entry (j, i, k) has a source that can be bright: B_j (if j emits or
 // reflects diffusely) or an active link j -> i. The candidates, every (i, k) some entry names,
 // are kept per reflector sorted by k, so a lookup is a binary search in one short row (a
-// std::map of the room's half million links cost 3 s a call). Sorted by (from, to).
+// std::map of the room's half million links cost 1.8 s a call). Sorted by (from, to).
 std::vector<Link> active_links(const PatchSet& patches, const std::vector<Material>& materials,
                                const FormFactors& ff, const SpecularTransfer& st) {
   auto b_can_shine = [&](PatchId j) {
