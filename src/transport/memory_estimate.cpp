@@ -16,6 +16,10 @@ constexpr double kBaseBytes = 20.0 * (1 << 20);
 constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
+// The hierarchy keeps the roots' transfer (12 bytes an entry) and the specular links' rows read
+// from it (8), built one reflector at a time: the room at tau 0.05 peaked 160 MB lower once the
+// rows stopped holding a vector per link, and these entries were then over-counted at 50 bytes.
+constexpr double kRootEntryBytes = 25.0;
 constexpr double kRootPairBytes = 360.0;
 constexpr double kVisibleShareOfFacing = 0.75;
 // Before meshing, work is refused only if it would not fit even were this share of the facing
@@ -50,7 +54,7 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.link_tolerance);
     const double transfer =
-        o.hierarchy.specular_links ? reflector_pairs_targets * kEntryBytes : 0.0;
+        o.hierarchy.specular_links ? reflector_pairs_targets * kRootEntryBytes : 0.0;
     const double coarse = std::pow(0.05 / std::max(tau, kFineTolerance), kCoarseExponent);
     const double fine = tau < kFineTolerance ? std::pow(kFineTolerance / tau, kFineExponent) : 1.0;
     const double growth = std::min(kMaxRefinementGrowth, std::max(1.0, coarse * fine));
