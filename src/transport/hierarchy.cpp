@@ -1129,7 +1129,7 @@ void HierarchyBuilder::run() {
     st.passes.push_back(next);
   }
   if (!links_.empty()) publish_links();  // the passes ended early
-  el_.shrink_to_fit();  // grown by doubling: up to 5 MB of slack on the mirror cube's gather
+  el_.shrink_to_fit();  // the last growth's slack (split grows the arrays by a quarter)
   h_.build_corner_averages(roots_);
   h_.build_lookup(roots_);
   st.seconds = t_start.seconds();

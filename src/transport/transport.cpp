@@ -32,9 +32,10 @@ void compact(std::vector<Entry>& row) {
 
 // Which links i -> k carry specular radiance: a fixed point over the transfer entries. A link
 // is active when some entry (j, i, k) has a source that can be bright: B_j (if j emits or
-// reflects diffusely) or an active link j -> i. The candidates, every (i, k) some entry names,
-// are kept per reflector sorted by k, so a lookup is a binary search in one short row (a
-// std::map of the room's half million links cost 1.8 s a call). Sorted by (from, to).
+// reflects diffusely) or an active link j -> i. The candidates, every (i, k) that an entry with
+// a positive fraction names and with F_ik > 0, are kept per reflector sorted by k, so a lookup
+// is a binary search in one short row (a std::map of the room's half million links cost 1.8 s
+// a call). Sorted by (from, to).
 std::vector<Link> active_links(const PatchSet& patches, const std::vector<Material>& materials,
                                const FormFactors& ff, const SpecularTransfer& st) {
   auto b_can_shine = [&](PatchId j) {
@@ -63,8 +64,8 @@ std::vector<Link> active_links(const PatchSet& patches, const std::vector<Materi
     return it != last && *it == k ? it - to.begin() : -1;
   };
   // Sources that can shine light their links at once; the others (pure reflectors) wait on
-  // the link that feeds them, and the few such entries are swept until nothing changes (as many
-  // rounds as the longest chain of reflectors, plus one).
+  // the link that feeds them, and those entries are swept until nothing changes (at most as
+  // many rounds as the longest chain of reflectors, plus one).
   std::vector<char> active(to.size(), 0);
   std::vector<std::pair<std::int64_t, std::int64_t>> waiting;  // (link, the link it waits on)
   for (PatchId i = 0; i < n; ++i)

@@ -13,7 +13,7 @@
 //            a hierarchy: 360 bytes a visible root pair at link tolerance 0.05, growing as
 //            (0.05 / tau)^0.6 down to tau 0.02 and then as (0.02 / tau)^1.3 (at most 64
 //            times) as the tolerance tightens, and with lobes
-//            the transfer on its roots and the root links' rows      25 bytes an entry
+//            the transfer on its roots and the root links' rows 25 bytes an entry
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
 //            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
