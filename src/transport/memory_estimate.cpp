@@ -17,7 +17,7 @@ constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
 // The hierarchy keeps the roots' transfer (12 bytes an entry) and the specular links' rows read
-// from it (8), built one reflector at a time: the room at tau 0.05 peaked 160 MB lower once the
+// from it (8), built one reflector at a time: the room at tau 0.1 peaked 155 MiB lower once the
 // rows stopped holding a vector per link, and these entries were then over-counted at 50 bytes.
 // 20 bytes are held; 25 leaves a margin for what the transfer's computation holds beside them
 // (not measured apart).
