@@ -30,14 +30,38 @@ void compact(std::vector<Entry>& row) {
   row.resize(w);
 }
 
-// Which links i -> k carry specular radiance: a fixed point over the transfer entries. A link
-// is active when some entry (j, i, k) has a source that can be bright: B_j (if j emits or
-// reflects diffusely) or an active link j -> i. The candidates, every (i, k) that an entry with
-// a positive fraction names and with F_ik > 0, are kept per reflector sorted by k, so a lookup
-// is a binary search in one short row (a std::map of the room's half million links cost 1.8 s
-// a call). Sorted by (from, to).
-std::vector<Link> active_links(const PatchSet& patches, const std::vector<Material>& materials,
-                               const FormFactors& ff, const SpecularTransfer& st) {
+// Rows of the links of reflector i, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}) with
+// W_jik = R_jik F_ij / F_ik, from i's transfer entries. rows[l - link_start[i]] is link l's row.
+void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId i,
+                    const TransferEntry* entries, std::size_t count,
+                    std::vector<std::vector<Entry>>& rows) {
+  const auto first = layout.link_start[i], last = layout.link_start[i + 1];
+  rows.resize(last - first);
+  for (auto& r : rows) r.clear();
+  for (std::size_t e = 0; e < count; ++e) {
+    PatchId j = entries[e].from, k = entries[e].to;
+    Eigen::Index row = layout.link_unknown(i, k);
+    if (row < 0) continue;
+    double w = entries[e].fraction * ff.at(i, j) / ff.at(i, k);
+    auto& r = rows[row - layout.num_patches - first];
+    r.push_back({j, w});
+    Eigen::Index source = layout.link_unknown(j, i);
+    if (source >= 0) r.push_back({static_cast<std::int32_t>(source), w});
+  }
+  for (auto& r : rows) {
+    compact(r);
+    for (auto& e : r) e.weight = static_cast<float>(e.weight);  // as the stored operator keeps it
+  }
+}
+
+}  // namespace
+
+// The fixed point of transport.h. The candidates, every (i, k) that an entry with a positive
+// fraction names and with F_ik > 0, are kept per reflector sorted by k, so a lookup is a binary
+// search in one short row (a std::map of the room's half million links cost 1.8 s a call).
+std::vector<Link> active_specular_links(const PatchSet& patches,
+                                        const std::vector<Material>& materials,
+                                        const FormFactors& ff, const SpecularTransfer& st) {
   auto b_can_shine = [&](PatchId j) {
     // An emitter counts even when dark: relighting may switch it on.
     const Patch& p = patches[j];
@@ -95,38 +119,6 @@ std::vector<Link> active_links(const PatchSet& patches, const std::vector<Materi
   return links;
 }
 
-// Rows of the links of reflector i, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}) with
-// W_jik = R_jik F_ij / F_ik, from i's transfer entries. rows[l - link_start[i]] is link l's row.
-void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId i,
-                    const TransferEntry* entries, std::size_t count,
-                    std::vector<std::vector<Entry>>& rows) {
-  const auto first = layout.link_start[i], last = layout.link_start[i + 1];
-  rows.resize(last - first);
-  for (auto& r : rows) r.clear();
-  for (std::size_t e = 0; e < count; ++e) {
-    PatchId j = entries[e].from, k = entries[e].to;
-    Eigen::Index row = layout.link_unknown(i, k);
-    if (row < 0) continue;
-    double w = entries[e].fraction * ff.at(i, j) / ff.at(i, k);
-    auto& r = rows[row - layout.num_patches - first];
-    r.push_back({j, w});
-    Eigen::Index source = layout.link_unknown(j, i);
-    if (source >= 0) r.push_back({static_cast<std::int32_t>(source), w});
-  }
-  for (auto& r : rows) {
-    compact(r);
-    for (auto& e : r) e.weight = static_cast<float>(e.weight);  // as the stored operator keeps it
-  }
-}
-
-}  // namespace
-
-std::vector<Link> active_specular_links(const PatchSet& patches,
-                                        const std::vector<Material>& materials,
-                                        const FormFactors& ff, const SpecularTransfer& st) {
-  return active_links(patches, materials, ff, st);
-}
-
 Eigen::Index UnknownLayout::link_unknown(PatchId i, PatchId k) const {
   auto first = links.begin() + link_start[i];
   auto last = links.begin() + link_start[i + 1];
@@ -153,7 +145,7 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
 
   auto& links = t.layout_.links;
   auto& link_start = t.layout_.link_start;
-  if (specular) links = active_links(patches, materials, ff, *specular);
+  if (specular) links = active_specular_links(patches, materials, ff, *specular);
   link_start.assign(n + 1, 0);
   for (const auto& l : links) ++link_start[l.from + 1];
   for (PatchId i = 0; i < n; ++i) link_start[i + 1] += link_start[i];
