@@ -2,8 +2,8 @@
 // runs them.
 //
 //   mirror_cube_render  `polyrad render` with the final gather, writing a .pfm (no image codec),
-//                       at --mesh hierarchical --link-tolerance 0.05 (the default tolerance) and
-//                       at --mesh uniform --patch-size 17, each as a process of its own so that
+//                       at --mesh hierarchical (the final gather's default link tolerance,
+//                       link_tolerance_for) and at --mesh uniform --patch-size 17, each as a process of its own so that
 //                       its peak resident set is its own (wait4), the two alternated in every
 //                       iteration so that both see the same load. Counters: each one's median
 //                       wall time and peak, and time_ratio, memory_ratio (hierarchical over
@@ -98,7 +98,7 @@ void mirror_cube_render(benchmark::State& state) {
     return args;
   };
   const auto hierarchical =
-      with({"--mesh", "hierarchical", "--link-tolerance", "0.05"}, "hierarchical.pfm");
+      with({"--mesh", "hierarchical"}, "hierarchical.pfm");
   const auto uniform = with({"--mesh", "uniform", "--patch-size", "17"}, "uniform.pfm");
   std::vector<double> h_time, h_peak, u_time, u_peak;
   try {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "polyrad/io/image_io.h"
+#include "polyrad/render/camera_gather.h"
 #include "polyrad/util/json.h"
 #include "test_support.h"
 
@@ -415,6 +416,34 @@ TEST(Cli, GatherFlagPicksTheKindAndTheReportSaysWhich) {
                 " --reflector-samples -1")
                 .code,
             2);
+}
+
+TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
+  // A hierarchical mesh behind the final gather links more coarsely than behind the patch
+  // gather, which reads the leaves at every pixel; a tolerance given wins over both.
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "f.pfm").string(), rep = (dir / "f.json").string(),
+                    prt = (dir / "f.prt").string();
+  struct Case {
+    std::string command, flags;
+    double tau;
+  };
+  const Case cases[] = {
+      {"render", "", link_tolerance_for(GatherKind::kFinal)},
+      {"render", " --gather patch", link_tolerance_for(GatherKind::kPatch)},
+      {"render", " --gather patch --link-tolerance 0.2", 0.2},
+      {"precompute", " --gather patch", link_tolerance_for(GatherKind::kPatch)},
+  };
+  EXPECT_GT(link_tolerance_for(GatherKind::kFinal), link_tolerance_for(GatherKind::kPatch));
+  for (const Case& c : cases) {
+    const std::string out = c.command == "render" ? img : prt;
+    CommandRun r = run(c.command + " " + test::scene_path("furnace") + " -o " + out +
+                       " --report " + rep + " --mesh hierarchical" + kQuickGather + c.flags);
+    ASSERT_EQ(r.code, 0) << c.command << c.flags << ": " << r.err;
+    const JsonValue* h = test::read_json(rep).find("system")->find("hierarchy");
+    ASSERT_NE(h, nullptr) << c.command << c.flags;
+    EXPECT_EQ(h->find("link_tolerance")->number, c.tau) << c.command << c.flags;
+  }
 }
 
 TEST(Cli, RenderBySeriesMatchesIterative) {

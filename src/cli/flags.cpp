@@ -40,6 +40,16 @@ void print_warnings(const std::vector<LobeResolution>& lobes) {
     if (r.smeared) std::fprintf(stderr, "polyrad: warning: %s\n", describe_smear(r).c_str());
 }
 
+namespace {
+
+std::string number_text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+}  // namespace
+
 void SystemFlags::add(CLI::App& app) {
   app.add_option("--patch-size", patch_size, "Override every patch_size of the scene")
       ->check(CLI::PositiveNumber);
@@ -60,10 +70,16 @@ void SystemFlags::add(CLI::App& app) {
   add_enum_option(app, "--mesh", mesh,
                   "Uniform patches linked pair by pair, or element trees on them linked at the "
                   "level the light needs (lobes on links between the trees' roots)");
+  hierarchy.link_tolerance = 0.0;
   app.add_option("--link-tolerance", hierarchy.link_tolerance,
-                 "Hierarchical mesh: the error a link may make, as a fraction of what it carries")
-      ->check(CLI::Range(1e-9, 1e9))
-      ->capture_default_str();
+                 "Hierarchical mesh: the error a link may make, as a fraction of what it carries "
+                 "(default " +
+                     number_text(link_tolerance_for(GatherKind::kFinal)) +
+                     " behind the final gather, " +
+                     number_text(link_tolerance_for(GatherKind::kPatch)) + " behind the patch "
+                     "gather, " + number_text(HierarchyOptions{}.link_tolerance) +
+                     " where no gather reads the solution)")
+      ->check(CLI::Range(1e-9, 1e9));
   app.add_option("--min-element-size", hierarchy.min_element_size,
                  "Hierarchical mesh: no element is split below this edge (default: an eighth of "
                  "its root patch)")
@@ -84,7 +100,7 @@ SceneOptions SystemFlags::scene() const {
 
 SceneOverrides SystemFlags::overrides() const { return {patch_size, classic}; }
 
-SystemOptions SystemFlags::system() const {
+SystemOptions SystemFlags::system(std::optional<GatherKind> gather) const {
   SystemOptions o;
   o.specular.samples = specular_samples;
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
@@ -92,18 +108,11 @@ SystemOptions SystemFlags::system() const {
   o.max_memory_bytes = max_memory_gib * (1ull << 30);
   o.mesh = mesh;
   o.hierarchy = hierarchy;
+  if (!(hierarchy.link_tolerance > 0.0))
+    o.hierarchy.link_tolerance =
+        gather ? link_tolerance_for(*gather) : HierarchyOptions{}.link_tolerance;
   return o;
 }
-
-namespace {
-
-std::string number_text(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
-
-}  // namespace
 
 void GatherFlags::add(CLI::App& app) {
   const GatherOptions patch, final = GatherOptions::final_gather();

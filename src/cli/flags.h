@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,11 +56,13 @@ struct SystemFlags {
   bool unsafe_albedo = false;
   double max_memory_gib = 0.0;
   MeshKind mesh = MeshKind::kUniform;
-  HierarchyOptions hierarchy;
+  HierarchyOptions hierarchy;  // its link_tolerance 0: not given, see system()
   void add(CLI::App& app);
   SceneOptions scene() const;
   SceneOverrides overrides() const;
-  SystemOptions system() const;
+  // An unset --link-tolerance takes what the gather that reads the solution needs
+  // (link_tolerance_for), or HierarchyOptions' own default where no gather reads it.
+  SystemOptions system(std::optional<GatherKind> gather = std::nullopt) const;
 };
 
 // The camera gather's flags, for `render`, `precompute` and `sweep`. Counts left unset (-1, and

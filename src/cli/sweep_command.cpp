@@ -76,8 +76,8 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
   f->gather.add(*cmd);
   cmd->add_flag(
       "--quick", f->quick,
-      "The demo's preset, about two minutes on 2 cores: patch sizes 100,50,35, link tolerance "
-      "0.05, drops 0,1e-3, reference at 512 spp (flags given explicitly still win)");
+      "The demo's preset, about two minutes on 2 cores: patch sizes 100,50,35, the gather's link "
+      "tolerance, drops 0,1e-3, reference at 512 spp (flags given explicitly still win)");
   cmd->callback([f, patch_sizes, tolerances, drops, reference_spp, &exit_code] {
     if (f->quick) {
       SweepOptions& q = f->options;
@@ -86,7 +86,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
       if (!patch_sizes->count()) q.patch_sizes = {100, 50, 35};
       if (!drops->count()) q.drops = {0.0, 1e-3};
       // One hierarchical mesh on the coarsest patches: the link tolerance's point beside them.
-      if (!tolerances->count()) q.link_tolerances = {0.05};
+      if (!tolerances->count()) q.link_tolerances = {link_tolerance_for(f->gather.kind)};
       // 512: its own noise (about 3 percent relative L1 on the mirror cube) stays below the
       // discretisation error that the converged solutions show against it.
       if (!reference_spp->count()) q.reference_spp = 512;

@@ -391,6 +391,8 @@ class GatherRows {
   const std::int64_t patches_;
 };
 
+double link_tolerance_for(GatherKind kind) { return kind == GatherKind::kFinal ? 0.07 : 0.05; }
+
 Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options) {
   return build_gather(world, world.camera(), layout, options);
 }

@@ -169,6 +169,7 @@ struct HierarchyPass {
 struct HierarchyStats {
   double b_ref_estimate = 0.0;  // the first pass's B_ref: mean emission / (1 - mean reflectance)
   double b_ref = 0.0;           // the last pass's: the mean radiosity of the last solve
+  double link_tolerance = 0.0;  // tau, as given
   double min_element_size = 0.0;
   double exposure_seconds = 0.0;
   long long root_pairs_facing = 0;
