@@ -3,13 +3,14 @@
 //
 //   mirror_cube_render  `polyrad render` with the final gather, writing a .pfm (no image codec),
 //                       at --mesh hierarchical (the final gather's default link tolerance,
-//                       link_tolerance_for) and at --mesh uniform --patch-size 17, each as a process of its own so that
-//                       its peak resident set is its own (wait4), the two alternated in every
-//                       iteration so that both see the same load. Counters: each one's median
-//                       wall time and peak, and time_ratio, memory_ratio (hierarchical over
-//                       uniform, of the medians). Target: both at most 0.1, with the image error
-//                       no worse, which the README's hierarchy study measures against the
-//                       4096-spp reference (a benchmark has no reference to compare with).
+//                       link_tolerance_for) and at --mesh uniform --patch-size 17, each as a
+//                       process of its own so that its peak resident set is its own (wait4), the
+//                       two alternated in every iteration so that both see the same load. Counters:
+//                       each one's median wall time and peak, and time_ratio, memory_ratio
+//                       (hierarchical over uniform, of the medians). Target: both at most 0.1, with
+//                       the image error no worse, which the README's hierarchy study measures
+//                       against the 4096-spp reference (a benchmark has no reference to compare
+//                       with).
 // About 2.5 minutes an iteration on two cores, nearly all of it the uniform render.
 // Targets are reported, never enforced.
 #include <spawn.h>
@@ -97,8 +98,7 @@ void mirror_cube_render(benchmark::State& state) {
     args.push_back((out / image).string());
     return args;
   };
-  const auto hierarchical =
-      with({"--mesh", "hierarchical"}, "hierarchical.pfm");
+  const auto hierarchical = with({"--mesh", "hierarchical"}, "hierarchical.pfm");
   const auto uniform = with({"--mesh", "uniform", "--patch-size", "17"}, "uniform.pfm");
   std::vector<double> h_time, h_peak, u_time, u_peak;
   try {

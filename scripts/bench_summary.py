@@ -447,8 +447,8 @@ def hierarchy_section(rep, verdicts):
                      "**%.3f**" % e["time_ratio"], mib(e["hierarchical_peak_bytes"]),
                      mib(e["uniform17_peak_bytes"]), "**%.3f**" % e["memory_ratio"]])
     out.append("cornell-mirror-cube, `polyrad render --gather final` writing a .pfm, each render a process "
-               "of its own, alternated; medians of the iterations. Hierarchical at tau 0.05 against uniform "
-               "patch size 17. Target: at most %.1f of the time and of the peak (the image error, no worse, "
+               "of its own, alternated; medians of the iterations. Hierarchical at the final gather's default link "
+               "tolerance against uniform patch size 17. Target: at most %.1f of the time and of the peak (the image error, no worse, "
                "is the README's hierarchy study)." % HIERARCHY_LIMIT)
     out.append("")
     out.append(table(["hierarchical", "uniform 17", "time ratio", "hierarchical peak", "uniform 17 peak",

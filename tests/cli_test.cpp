@@ -432,16 +432,17 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
       {"render", "", link_tolerance_for(GatherKind::kFinal)},
       {"render", " --gather patch", link_tolerance_for(GatherKind::kPatch)},
       {"render", " --gather patch --link-tolerance 0.2", 0.2},
-      {"precompute", " --gather patch", link_tolerance_for(GatherKind::kPatch)},
+      {"precompute", "", link_tolerance_for(GatherKind::kFinal)},
   };
   EXPECT_GT(link_tolerance_for(GatherKind::kFinal), link_tolerance_for(GatherKind::kPatch));
   for (const Case& c : cases) {
     const std::string out = c.command == "render" ? img : prt;
-    CommandRun r = run(c.command + " " + test::scene_path("furnace") + " -o " + out +
-                       " --report " + rep + " --mesh hierarchical" + kQuickGather + c.flags);
+    CommandRun r = run(c.command + " " + test::scene_path("furnace") + " -o " + out + " --report " +
+                       rep + " --mesh hierarchical" + kQuickGather + c.flags);
     ASSERT_EQ(r.code, 0) << c.command << c.flags << ": " << r.err;
     const JsonValue* h = test::read_json(rep).find("system")->find("hierarchy");
     ASSERT_NE(h, nullptr) << c.command << c.flags;
+    ASSERT_NE(h->find("link_tolerance"), nullptr) << c.command << c.flags;
     EXPECT_EQ(h->find("link_tolerance")->number, c.tau) << c.command << c.flags;
   }
 }

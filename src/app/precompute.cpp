@@ -58,7 +58,11 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   rep.overrides = o.overrides;
   Scene scene = load_scene(scene_path, o.scene);
   rep.seconds.push_back({"load", watch.lap()});
-  SystemOptions system = o.system;  // with the view rows' share of the memory estimate
+  // With the gather's link tolerance, if none is chosen, and the view rows' share of the memory
+  // estimate.
+  SystemOptions system = o.system;
+  system.hierarchy.link_tolerance =
+      link_tolerance_for(o.series.gather.kind, o.system.hierarchy.link_tolerance);
   system.camera_bytes = rows_memory(o.series, apply_overrides(scene, o.overrides));
   auto sys = build_system(std::move(scene), o.overrides, system);
   require_precompute_memory(o.series, *sys, o.system.max_memory_bytes);

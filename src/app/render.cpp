@@ -129,6 +129,8 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
   r.report.method = enum_name(o.method);
   if (o.method == RenderMethod::kSeries) check_series_options(o.series, o.system);
   SystemOptions system = o.system;
+  system.hierarchy.link_tolerance =
+      link_tolerance_for(o.gather.kind, o.system.hierarchy.link_tolerance);
   r.world = load_world(scene_path, o, system, r.report);
   switch (o.method) {
     case RenderMethod::kIterative:

@@ -155,7 +155,7 @@ struct Discretisation {
     char text[96];
     if (system.mesh == MeshKind::kHierarchical)
       std::snprintf(text, sizeof text, "patch size %g, hierarchical, link tolerance %g", patch_size,
-                    system.hierarchy.link_tolerance);
+                    system.hierarchy.tolerance());
     else
       std::snprintf(text, sizeof text, "patch size %g", patch_size);
     return text;
@@ -199,8 +199,7 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
     r.method = method;
     r.mesh = enum_name(d.system.mesh);
     r.patch_size = patch_size;
-    if (d.system.mesh == MeshKind::kHierarchical)
-      r.link_tolerance = d.system.hierarchy.link_tolerance;
+    if (d.system.mesh == MeshKind::kHierarchical) r.link_tolerance = d.system.hierarchy.tolerance();
     r.patches = static_cast<long long>(sys->num_unknown_patches());  // a hierarchy's leaves
     r.unknowns = static_cast<long long>(t.size());
     r.system_seconds = system_seconds;

@@ -70,15 +70,14 @@ void SystemFlags::add(CLI::App& app) {
   add_enum_option(app, "--mesh", mesh,
                   "Uniform patches linked pair by pair, or element trees on them linked at the "
                   "level the light needs (lobes on links between the trees' roots)");
-  hierarchy.link_tolerance = 0.0;
+  const std::string tolerances =
+      number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather, " +
+      number_text(link_tolerance_for(GatherKind::kPatch)) + " behind the patch gather, " +
+      number_text(kDefaultLinkTolerance) + " where no gather reads the solution";
   app.add_option("--link-tolerance", hierarchy.link_tolerance,
                  "Hierarchical mesh: the error a link may make, as a fraction of what it carries "
                  "(default " +
-                     number_text(link_tolerance_for(GatherKind::kFinal)) +
-                     " behind the final gather, " +
-                     number_text(link_tolerance_for(GatherKind::kPatch)) + " behind the patch "
-                     "gather, " + number_text(HierarchyOptions{}.link_tolerance) +
-                     " where no gather reads the solution)")
+                     tolerances + ")")
       ->check(CLI::Range(1e-9, 1e9));
   app.add_option("--min-element-size", hierarchy.min_element_size,
                  "Hierarchical mesh: no element is split below this edge (default: an eighth of "
@@ -100,7 +99,7 @@ SceneOptions SystemFlags::scene() const {
 
 SceneOverrides SystemFlags::overrides() const { return {patch_size, classic}; }
 
-SystemOptions SystemFlags::system(std::optional<GatherKind> gather) const {
+SystemOptions SystemFlags::system() const {
   SystemOptions o;
   o.specular.samples = specular_samples;
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
@@ -108,9 +107,6 @@ SystemOptions SystemFlags::system(std::optional<GatherKind> gather) const {
   o.max_memory_bytes = max_memory_gib * (1ull << 30);
   o.mesh = mesh;
   o.hierarchy = hierarchy;
-  if (!(hierarchy.link_tolerance > 0.0))
-    o.hierarchy.link_tolerance =
-        gather ? link_tolerance_for(*gather) : HierarchyOptions{}.link_tolerance;
   return o;
 }
 

@@ -6,7 +6,6 @@
 
 #include <CLI/CLI.hpp>
 #include <map>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,13 +55,11 @@ struct SystemFlags {
   bool unsafe_albedo = false;
   double max_memory_gib = 0.0;
   MeshKind mesh = MeshKind::kUniform;
-  HierarchyOptions hierarchy;  // its link_tolerance 0: not given, see system()
+  HierarchyOptions hierarchy;  // link_tolerance 0 unless given: the workflow chooses
   void add(CLI::App& app);
   SceneOptions scene() const;
   SceneOverrides overrides() const;
-  // An unset --link-tolerance takes what the gather that reads the solution needs
-  // (link_tolerance_for), or HierarchyOptions' own default where no gather reads it.
-  SystemOptions system(std::optional<GatherKind> gather = std::nullopt) const;
+  SystemOptions system() const;
 };
 
 // The camera gather's flags, for `render`, `precompute` and `sweep`. Counts left unset (-1, and

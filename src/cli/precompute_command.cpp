@@ -22,7 +22,7 @@ int run_precompute(PrecomputeFlags& f) {
   PrecomputeOptions& o = f.options;
   o.scene = f.system.scene();
   o.overrides = f.system.overrides();
-  o.system = f.system.system(f.gather.kind);
+  o.system = f.system.system();
   o.series.gather = f.gather.options();
   PrecomputeResult r = precompute(f.scene, o);
   print_warnings(r.report.system->lobes);

@@ -54,7 +54,7 @@ int run_render(RenderFlags& f) {
   RenderOptions& o = f.options;
   o.scene = f.system.scene();
   o.overrides = f.system.overrides();
-  o.system = f.system.system(f.gather.kind);
+  o.system = f.system.system();
   o.solve.tolerance = o.series.tolerance = f.tolerance;
   o.gather = f.gather.options();
   const RenderResult r = render(f.scene, o);

@@ -391,7 +391,10 @@ class GatherRows {
   const std::int64_t patches_;
 };
 
-double link_tolerance_for(GatherKind kind) { return kind == GatherKind::kFinal ? 0.07 : 0.05; }
+double link_tolerance_for(GatherKind kind, double chosen) {
+  if (chosen > 0.0) return chosen;
+  return kind == GatherKind::kFinal ? 0.07 : kDefaultLinkTolerance;
+}
 
 Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options) {
   return build_gather(world, world.camera(), layout, options);

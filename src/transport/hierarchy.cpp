@@ -315,7 +315,7 @@ class HierarchyBuilder {
     // other end reveals).
     const Eigen::Array3d& rho = judged_rho_[el_[r].root];
     const Eigen::Array3d b_r = b_[r] + mean_s_[el_[r].root];
-    const double tau = o_.link_tolerance;
+    const double tau = o_.tolerance();
     if (l.visibility == LinkVisibility::kHidden) return true;
     if (l.visibility == LinkVisibility::kPartial) {
       const double f_max = r == l.a ? l.fmax_a : l.fmax_b;
@@ -1010,7 +1010,7 @@ void HierarchyBuilder::run() {
   min_size_.resize(r);
   for (std::int32_t p = 0; p < r; ++p)
     min_size_[p] = o_.min_element_size > 0.0 ? o_.min_element_size : longest_edge(roots_[p]) / 8.0;
-  st.link_tolerance = o_.link_tolerance;
+  st.link_tolerance = o_.tolerance();
   st.min_element_size = o_.min_element_size > 0.0 ? o_.min_element_size : 0.0;
   // B_ref: the mean radiosity of a scene whose surfaces all had the mean reflectance.
   double area = 0.0, emitted = 0.0, reflected = 0.0;

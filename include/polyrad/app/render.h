@@ -43,9 +43,7 @@ struct RenderOptions {
   RenderMethod method = RenderMethod::kIterative;
   SceneOptions scene;
   SceneOverrides overrides;
-  // Its hierarchy.link_tolerance is taken as given (HierarchyOptions' 0.05 by default); the
-  // command line, given none, takes link_tolerance_for(gather.kind).
-  SystemOptions system;
+  SystemOptions system;  // a link tolerance left 0: link_tolerance_for(gather.kind)
   SolveOptions solve;                                    // iterative
   SeriesOptions series;                                  // series (its output is always view rows)
   PathTraceOptions pathtrace;                            // pathtrace

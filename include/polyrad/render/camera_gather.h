@@ -123,7 +123,8 @@ struct GatherOptions {
 // reads the mesh only one bounce away from what a pixel sees: 0.07, which against 0.05 kept the
 // relative RMSE (cornell-box 0.0494 against 0.0485, cornell-glossy 0.0646 against 0.0648, the
 // mirror cube 0.0788 both) for 15 percent less memory (README, "Hierarchical links").
-double link_tolerance_for(GatherKind kind);
+// With chosen > 0 (a tolerance the caller chose), chosen itself.
+double link_tolerance_for(GatherKind kind, double chosen = 0.0);
 
 using Rgbf = std::array<float, 3>;
 

@@ -100,10 +100,15 @@ namespace polyrad {
 // The sample points of an element at which the oracle evaluates point form factors.
 inline constexpr int kOraclePoints = 5;
 
+// The link tolerance where none is chosen and no gather reads the solution.
+inline constexpr double kDefaultLinkTolerance = 0.05;
+
 struct HierarchyOptions {
   // tau of eq. H1 (above): the error a link may make, as a fraction of what it carries (or, for
-  // a partly hidden pair, of its receiver's radiosity).
-  double link_tolerance = 0.05;
+  // a partly hidden pair, of its receiver's radiosity). 0: not chosen; render and precompute
+  // then take what their gather needs (link_tolerance_for, render/camera_gather.h), anything
+  // else kDefaultLinkTolerance.
+  double link_tolerance = 0.0;
   // No element is split into children with an edge shorter than this (scene units); 0: an
   // eighth of the root's longest edge (three levels).
   double min_element_size = 0.0;
@@ -122,6 +127,7 @@ struct HierarchyOptions {
   // material is reduced to its diffuse part.
   bool specular_links = true;
   SpecularOptions specular;
+  double tolerance() const { return link_tolerance > 0.0 ? link_tolerance : kDefaultLinkTolerance; }
 };
 
 // One node of an element tree.
@@ -169,7 +175,7 @@ struct HierarchyPass {
 struct HierarchyStats {
   double b_ref_estimate = 0.0;  // the first pass's B_ref: mean emission / (1 - mean reflectance)
   double b_ref = 0.0;           // the last pass's: the mean radiosity of the last solve
-  double link_tolerance = 0.0;  // tau, as given
+  double link_tolerance = 0.0;  // tau, as used
   double min_element_size = 0.0;
   double exposure_seconds = 0.0;
   long long root_pairs_facing = 0;
