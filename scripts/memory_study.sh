@@ -61,6 +61,7 @@ run "render cornell-mirror-cube, patch size 17, patch gather" render "$mirror" -
 run "render cornell-glossy, patch size 35" render "$scenes/cornell-glossy.json" --patch-size 35
 run "render cornell-box, hierarchical, tau 0.05" render "$box" --mesh hierarchical --link-tolerance 0.05
 run "render cornell-mirror-cube, hierarchical, tau 0.05" render "$mirror" --mesh hierarchical --link-tolerance 0.05
+run "render cornell-mirror-cube, hierarchical (the final gather's tau, 0.07)" render "$mirror" --mesh hierarchical
 run "render cornell-box, hierarchical, tau 0.02" render "$box" --mesh hierarchical --link-tolerance 0.02
 big="$(at "$box" 1024)"
 run "render cornell-box at 1024 x 1024, patch gather" render "$big" --gather patch
@@ -72,10 +73,11 @@ if [ "$rows" = all ]; then
   room="$scenes/room.json"
   run "render room (uniform, final gather)" render "$room"
   run "render room, patch size 200" render "$room" --patch-size 200
+  run "render room, hierarchical (the final gather's tau, 0.07)" render "$room" --mesh hierarchical
   run "render room, hierarchical, tau 0.05" render "$room" --mesh hierarchical --link-tolerance 0.05
   run "render room, hierarchical, tau 0.02" render "$room" --mesh hierarchical --link-tolerance 0.02
   run "precompute room" precompute "$room"
-  run "precompute room, hierarchical" precompute "$room" --mesh hierarchical
+  run "precompute room, hierarchical (tau 0.07)" precompute "$room" --mesh hierarchical
 fi
 uptime > "$out/load.txt"
 
