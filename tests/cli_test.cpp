@@ -440,7 +440,8 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
     CommandRun r = run(c.command + " " + test::scene_path("furnace") + " -o " + out + " --report " +
                        rep + " --mesh hierarchical" + kQuickGather + c.flags);
     ASSERT_EQ(r.code, 0) << c.command << c.flags << ": " << r.err;
-    const JsonValue* h = test::read_json(rep).find("system")->find("hierarchy");
+    const JsonValue report = test::read_json(rep);
+    const JsonValue* h = report.find("system")->find("hierarchy");
     ASSERT_NE(h, nullptr) << c.command << c.flags;
     ASSERT_NE(h->find("link_tolerance"), nullptr) << c.command << c.flags;
     EXPECT_EQ(h->find("link_tolerance")->number, c.tau) << c.command << c.flags;
