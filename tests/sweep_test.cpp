@@ -1,6 +1,8 @@
 // polyrad sweep and scripts/charts.py end to end, on a Cornell box shrunk to a 32 x 32 camera and
 // a handful of patches: the CSV has the columns the charts read and figures that hold together,
 // the charts are PNG files a loader opens, the reference is cached, bad input is exit code 2.
+#include "polyrad/app/sweep.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -187,6 +189,55 @@ TEST(Sweep, RunsEndToEndAndTheChartsOpen) {
   ASSERT_EQ(stale.code, 0) << stale.err;
   EXPECT_NE(stale.err.find("stale"), std::string::npos) << stale.err;
   EXPECT_EQ(read_csv(std::filesystem::path(out) / "sweep.csv").rows.size(), 1u + 2 + 1 + 1);
+}
+
+// The quick preset fills what the caller left: one hierarchical mesh at the tolerance a render
+// with the same gather takes (the two gathers take different ones, so a lost gather shows).
+TEST(Sweep, QuickPresetTakesTheGathersLinkTolerance) {
+  ASSERT_NE(link_tolerance_for(GatherKind::kFinal), link_tolerance_for(GatherKind::kPatch));
+  for (GatherKind kind : {GatherKind::kFinal, GatherKind::kPatch}) {
+    SweepOptions o;
+    o.gather.kind = kind;
+    apply_quick_preset(o, {});
+    EXPECT_EQ(o.link_tolerances, std::vector<double>{link_tolerance_for(kind)});
+    EXPECT_EQ(o.patch_sizes, (std::vector<double>{100, 50, 35}));
+    EXPECT_EQ(o.drops, (std::vector<double>{0.0, 1e-3}));
+    EXPECT_EQ(o.reference_spp, 512);
+  }
+  SweepOptions chosen;
+  chosen.patch_sizes = {40};
+  chosen.link_tolerances = {0.2};
+  chosen.drops = {0.01};
+  chosen.reference_spp = 64;
+  apply_quick_preset(chosen, {true, true, true, true});
+  EXPECT_EQ(chosen.patch_sizes, std::vector<double>{40});
+  EXPECT_EQ(chosen.link_tolerances, std::vector<double>{0.2});
+  EXPECT_EQ(chosen.drops, std::vector<double>{0.01});
+  EXPECT_EQ(chosen.reference_spp, 64);
+}
+
+// Through the command line: `--quick` with each gather writes its hierarchical rows at that
+// gather's tolerance (the preset must see the gather the flags chose).
+TEST(Sweep, QuickFromTheCommandLineFollowsTheGather) {
+  auto dir = test::temp_dir();
+  std::string scene = tiny_scene(dir);
+  for (GatherKind kind : {GatherKind::kFinal, GatherKind::kPatch}) {
+    const std::string name = kind == GatherKind::kFinal ? "final" : "patch";
+    std::string out = (dir / name).string();
+    CommandRun r = run_cli("sweep " + scene + " --out " + out + " --quick --gather " + name +
+                           " --patch-sizes 200 --orders 1 --drops 0 --precisions float"
+                           " --sweeps 1 --spp 1 --reference-spp 8 --gather-samples 4"
+                           " --light-samples 4 --reflector-samples 4");
+    ASSERT_EQ(r.code, 0) << r.err;
+    Csv csv = read_csv(std::filesystem::path(out) / "sweep.csv");
+    int hierarchical = 0;
+    for (size_t i = 0; i < csv.rows.size(); ++i) {
+      if (csv.rows[i].at("mesh") != "hierarchical") continue;
+      ++hierarchical;
+      EXPECT_DOUBLE_EQ(csv.number(i, "link_tolerance"), link_tolerance_for(kind)) << name;
+    }
+    EXPECT_GT(hierarchical, 0) << name;
+  }
 }
 
 TEST(Sweep, BadInputIsExitTwoAndWritesNothing) {

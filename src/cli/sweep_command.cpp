@@ -17,7 +17,6 @@ struct SweepFlags {
 };
 
 int run_sweep(SweepFlags& f) {
-  f.options.gather = f.gather.options();
   const SweepResult r = sweep(f.scene, f.options);
   std::fprintf(stderr, "polyrad sweep: %lld points in %.1f s; wrote %s/sweep.csv, %s/machine.txt\n",
                r.points, r.seconds, f.options.out.c_str(), f.options.out.c_str());
@@ -79,18 +78,10 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
       "The demo's preset, about two minutes on 2 cores: patch sizes 100,50,35, the gather's link "
       "tolerance, drops 0,1e-3, reference at 512 spp (flags given explicitly still win)");
   cmd->callback([f, patch_sizes, tolerances, drops, reference_spp, &exit_code] {
-    if (f->quick) {
-      SweepOptions& q = f->options;
-      // The finest patches cost the most (form factors and transfer grow with the square of the
-      // patch count, the precompute with nnz(T)): 35 keeps the sweep near two minutes with the hierarchical mesh.
-      if (!patch_sizes->count()) q.patch_sizes = {100, 50, 35};
-      if (!drops->count()) q.drops = {0.0, 1e-3};
-      // One hierarchical mesh on the coarsest patches: the link tolerance's point beside them.
-      if (!tolerances->count()) q.link_tolerances = {link_tolerance_for(f->gather.kind)};
-      // 512: its own noise (about 3 percent relative L1 on the mirror cube) stays below the
-      // discretisation error that the converged solutions show against it.
-      if (!reference_spp->count()) q.reference_spp = 512;
-    }
+    f->options.gather = f->gather.options();
+    if (f->quick)
+      apply_quick_preset(f->options, {patch_sizes->count() > 0, tolerances->count() > 0,
+                                      drops->count() > 0, reference_spp->count() > 0});
     exit_code = run_sweep(*f);
   });
 }

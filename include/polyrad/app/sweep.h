@@ -52,4 +52,14 @@ struct SweepResult {
 
 SweepResult sweep(const std::string& scene_path, const SweepOptions& options);
 
+// Which of the quick preset's knobs the caller chose (those keep the caller's values).
+struct SweepChoices {
+  bool patch_sizes = false, link_tolerances = false, drops = false, reference_spp = false;
+};
+
+// The demo's preset (`sweep --quick`), about two minutes on 2 cores: patch sizes 100, 50, 35, one
+// hierarchical mesh at the link tolerance o.gather's kind takes (link_tolerance_for), drops 0 and
+// 1e-3, the reference at 512 spp; what `chosen` names is left as it is.
+void apply_quick_preset(SweepOptions& o, const SweepChoices& chosen);
+
 }  // namespace polyrad
