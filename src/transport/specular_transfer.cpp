@@ -21,6 +21,9 @@ constexpr double kCentrePointPrune = 1e-4;
 constexpr int kBalanceIterations = 3000;
 constexpr double kBalanceTolerance = 1e-9;
 constexpr double kLostPrior = 1e-4;
+// Sweeps of coordinate ascent before Newton's method takes over, and its most steps.
+constexpr int kSweepsBeforeNewton = 30;
+constexpr int kNewtonSteps = 40;
 
 // The first of 7, 11, 13, ... that shares no factor with n: s -> (s * stride + 3) mod n is then
 // a permutation of 0..n-1.
@@ -179,7 +182,136 @@ double residual_of(const std::vector<Row>& rows, const Row& r) {
 
 bool active(const Row& r) { return r.observed && !(r.partner.empty() && r.diag <= 0.0); }
 
-// Coordinate ascent over the observed rows; returns the largest residual left.
+double worst_residual(const std::vector<Row>& rows) {
+  double worst = 0.0;
+  for (const Row& r : rows)
+    if (active(r)) worst = std::max(worst, residual_of(rows, r));
+  return worst;
+}
+
+// Every row's condition in one form, F_a = tau_a - (c_aa + c_aE) / lambda_a - sum_b C_ab /
+// (lambda_a + lambda_b) = 0 (lost = 0 gives r_a = tau_a, lost > 0 the condition above divided
+// by lambda_a), relative to tau_a; 0 for the rows not solved for. False outside the domain (a
+// denominator not positive).
+bool conditions(const std::vector<Row>& rows, const std::vector<double>& lambda,
+                std::vector<double>& f) {
+  f.assign(rows.size(), 0.0);
+  for (std::size_t a = 0; a < rows.size(); ++a) {
+    const Row& r = rows[a];
+    if (!active(r)) continue;
+    const double own = r.diag + r.lost;
+    if (own > 0.0 && !(lambda[a] > 0.0)) return false;
+    double sum = own > 0.0 ? own / lambda[a] : 0.0;
+    for (const auto& [b, c] : r.partner) {
+      const double d = lambda[a] + lambda[b];
+      if (!(d > 0.0)) return false;
+      sum += c / d;
+    }
+    f[a] = 1.0 - sum / r.tau;
+  }
+  return true;
+}
+
+double norm(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x * x;
+  return std::sqrt(s);
+}
+
+// The Jacobian of the conditions times tau (below) at lambda, applied to v: out = J v over the
+// rows solved for (the others' lambdas are held, so their entries are 0).
+void jacobian_times(const std::vector<Row>& rows, const std::vector<double>& lambda,
+                    const std::vector<double>& v, std::vector<double>& out) {
+  for (std::size_t a = 0; a < rows.size(); ++a) {
+    const Row& r = rows[a];
+    out[a] = 0.0;
+    if (!active(r)) continue;
+    const double own = r.diag + r.lost;
+    double s = own > 0.0 ? own / (lambda[a] * lambda[a]) * v[a] : 0.0;
+    for (const auto& [b, c] : r.partner) {
+      const double w = c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b]));
+      s += w * v[a];
+      if (active(rows[b])) s += w * v[b];
+    }
+    out[a] = s;
+  }
+}
+
+// Solves J x = g by conjugate gradients from 0, preconditioned by J's diagonal, to a relative
+// residual of 1e-12 or 1000 iterations.
+void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>& lambda,
+                         const std::vector<double>& g, std::vector<double>& x) {
+  const std::size_t n = rows.size();
+  std::vector<double> diag(n, 1.0);
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!active(rows[a])) continue;
+    const Row& r = rows[a];
+    const double own = r.diag + r.lost;
+    double d = own > 0.0 ? own / (lambda[a] * lambda[a]) : 0.0;
+    for (const auto& [b, c] : r.partner)
+      d += c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b]));
+    if (d > 0.0) diag[a] = d;
+  }
+  x.assign(n, 0.0);
+  std::vector<double> res = g, z(n), p(n), q(n);
+  double rz = 0.0;
+  for (std::size_t a = 0; a < n; ++a) {
+    z[a] = p[a] = res[a] / diag[a];
+    rz += res[a] * z[a];
+  }
+  const double g_norm = norm(g);
+  for (int it = 0; it < 1000 && norm(res) > 1e-12 * g_norm; ++it) {
+    jacobian_times(rows, lambda, p, q);
+    double pq = 0.0;
+    for (std::size_t a = 0; a < n; ++a) pq += p[a] * q[a];
+    if (!(pq > 0.0)) break;
+    const double alpha = rz / pq;
+    double rz_next = 0.0;
+    for (std::size_t a = 0; a < n; ++a) {
+      x[a] += alpha * p[a];
+      res[a] -= alpha * q[a];
+      z[a] = res[a] / diag[a];
+      rz_next += res[a] * z[a];
+    }
+    const double beta = rz_next / rz;
+    rz = rz_next;
+    for (std::size_t a = 0; a < n; ++a) p[a] = z[a] + beta * p[a];
+  }
+}
+
+// Newton's method on the conditions, for a reflector whose coordinate ascent settles slowly
+// (the room's floor patches, with about 2,000 sources each, took up to 3,000 sweeps). The
+// Jacobian of tau_a F_a is symmetric and weakly diagonally dominant with positive entries,
+//   J_ab = C_ab / (lambda_a + lambda_b)^2,  J_aa = (c_aa + c_aE) / lambda_a^2 + sum_b J_ab,
+// so each step solves J delta = -tau F by conjugate gradients and is halved until it stays in
+// the domain and lowers |F|. The lambdas are kept after every step taken. Returns false when a
+// step finds no decrease (the caller goes on with the ascent from there).
+bool newton(std::vector<Row>& rows, int steps) {
+  const std::size_t n = rows.size();
+  std::vector<double> lambda(n), f, f_trial, trial(n), g(n), delta;
+  for (std::size_t a = 0; a < n; ++a) lambda[a] = rows[a].lambda;
+  if (!conditions(rows, lambda, f)) return false;
+  for (int step = 0; step < steps; ++step) {
+    const double f_norm = norm(f);
+    if (!(f_norm > 0.0)) break;
+    for (std::size_t a = 0; a < n; ++a) g[a] = -rows[a].tau * f[a];
+    conjugate_gradients(rows, lambda, g, delta);
+    bool moved = false;
+    for (double t = 1.0; t > 1e-6 && !moved; t *= 0.5) {
+      for (std::size_t a = 0; a < n; ++a) trial[a] = lambda[a] + t * delta[a];
+      moved = conditions(rows, trial, f_trial) && norm(f_trial) < (1.0 - 1e-4 * t) * f_norm;
+    }
+    if (!moved) return false;
+    lambda.swap(trial);
+    f.swap(f_trial);
+    for (std::size_t a = 0; a < n; ++a) rows[a].lambda = lambda[a];
+    if (!(worst_residual(rows) >= kBalanceTolerance)) break;
+  }
+  return true;
+}
+
+// Coordinate ascent over the observed rows, with Newton steps once it is slow; returns the
+// largest residual left.
 double ascend(std::vector<Row>& rows) {
   double worst = 0.0;
   for (int sweep = 0; sweep < kBalanceIterations; ++sweep) {
@@ -189,10 +321,14 @@ double ascend(std::vector<Row>& rows) {
       if (!std::isfinite(next)) return std::numeric_limits<double>::infinity();
       r.lambda = next;
     }
-    worst = 0.0;
-    for (const Row& r : rows)
-      if (active(r)) worst = std::max(worst, residual_of(rows, r));
+    worst = worst_residual(rows);
     if (!(worst >= kBalanceTolerance)) break;  // also leaves on NaN
+    // Slow: Newton's method from here. Settled, or not settling (the caller then adds the
+    // prior), it ends the ascent; a step that finds no decrease leaves it to the sweeps.
+    if (sweep + 1 == kSweepsBeforeNewton && newton(rows, kNewtonSteps)) {
+      worst = worst_residual(rows);
+      break;
+    }
   }
   return std::isfinite(worst) ? worst : std::numeric_limits<double>::infinity();
 }

@@ -16,14 +16,15 @@
 // etendue (energy conservation) and, in a closed scene, makes every row and hence every column
 // carry what its own samples saw, so each link radiance S_{i->k} is exact in a uniform field
 // instead of carrying the noise of the few rays that reached k. The likelihood's dual is
-// solved by coordinate ascent. The seed's centre-point evaluation of rho is available as an
-// option to compare.
+// solved by coordinate ascent, and by Newton's method where that is slow. The seed's
+// centre-point evaluation of rho is available as an option to compare.
 //
 //   SpecularTransfer st = compute_specular_transfer(patches, materials, ff, caster, {});
 //   for (auto e = st.start[i]; e < st.start[i + 1]; ++e) use(st.from[e], st.to[e], st.fraction[e]);
 //
 // Cost: S shadow rays + S lobe rays per facing pair into a non-diffuse patch, plus the balancing
-// (a few hundred sweeps over each reflector's entries); memory 12 bytes per stored R_jik.
+// (up to 30 sweeps over each reflector's entries, then a few Newton steps of conjugate gradients
+// over them); memory 12 bytes per stored R_jik.
 #pragma once
 
 #include <vector>
