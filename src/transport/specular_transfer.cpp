@@ -21,9 +21,11 @@ constexpr double kCentrePointPrune = 1e-4;
 constexpr int kBalanceIterations = 3000;
 constexpr double kBalanceTolerance = 1e-9;
 constexpr double kLostPrior = 1e-4;
-// Sweeps of coordinate ascent before Newton's method takes over, and its most steps.
+// Sweeps of coordinate ascent before Newton's method takes over, its most steps, and the most
+// conjugate-gradient iterations of a step.
 constexpr int kSweepsBeforeNewton = 30;
 constexpr int kNewtonSteps = 40;
+constexpr int kNewtonIterations = 200;
 
 // The first of 7, 11, 13, ... that shares no factor with n: s -> (s * stride + 3) mod n is then
 // a permutation of 0..n-1.
@@ -218,38 +220,39 @@ double norm(const std::vector<double>& v) {
   return std::sqrt(s);
 }
 
-// The Jacobian of the conditions times tau (below) at lambda, applied to v: out = J v over the
-// rows solved for (the others' lambdas are held, so their entries are 0).
+// Row a of the Jacobian of tau F (below) at lambda: its diagonal entry, and v's product with the
+// row (the rows not solved for hold their lambdas, so their entries are 0).
+double jacobian_diagonal(const std::vector<Row>& rows, const std::vector<double>& lambda,
+                         std::size_t a) {
+  const Row& r = rows[a];
+  const double own = r.diag + r.lost;
+  double d = own > 0.0 ? own / (lambda[a] * lambda[a]) : 0.0;
+  for (const auto& [b, c] : r.partner) d += c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b]));
+  return d;
+}
+
 void jacobian_times(const std::vector<Row>& rows, const std::vector<double>& lambda,
                     const std::vector<double>& v, std::vector<double>& out) {
   for (std::size_t a = 0; a < rows.size(); ++a) {
-    const Row& r = rows[a];
     out[a] = 0.0;
-    if (!active(r)) continue;
-    const double own = r.diag + r.lost;
-    double s = own > 0.0 ? own / (lambda[a] * lambda[a]) * v[a] : 0.0;
-    for (const auto& [b, c] : r.partner) {
-      const double w = c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b]));
-      s += w * v[a];
-      if (active(rows[b])) s += w * v[b];
-    }
+    if (!active(rows[a])) continue;
+    double s = jacobian_diagonal(rows, lambda, a) * v[a];
+    for (const auto& [b, c] : rows[a].partner)
+      if (active(rows[b])) s += c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b])) * v[b];
     out[a] = s;
   }
 }
 
 // Solves J x = g by conjugate gradients from 0, preconditioned by J's diagonal, to a relative
-// residual of 1e-12 or 1000 iterations.
+// residual `tolerance` or kNewtonIterations iterations: an inexact Newton step, loose while F is
+// large, so that a J that is singular (the sampled pattern allows no lossless solution, which
+// the prior settles) costs a bounded number of products.
 void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>& lambda,
-                         const std::vector<double>& g, std::vector<double>& x) {
+                         const std::vector<double>& g, double tolerance, std::vector<double>& x) {
   const std::size_t n = rows.size();
   std::vector<double> diag(n, 1.0);
   for (std::size_t a = 0; a < n; ++a) {
-    if (!active(rows[a])) continue;
-    const Row& r = rows[a];
-    const double own = r.diag + r.lost;
-    double d = own > 0.0 ? own / (lambda[a] * lambda[a]) : 0.0;
-    for (const auto& [b, c] : r.partner)
-      d += c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b]));
+    const double d = active(rows[a]) ? jacobian_diagonal(rows, lambda, a) : 0.0;
     if (d > 0.0) diag[a] = d;
   }
   x.assign(n, 0.0);
@@ -260,7 +263,7 @@ void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>
     rz += res[a] * z[a];
   }
   const double g_norm = norm(g);
-  for (int it = 0; it < 1000 && norm(res) > 1e-12 * g_norm; ++it) {
+  for (int it = 0; it < kNewtonIterations && norm(res) > tolerance * g_norm; ++it) {
     jacobian_times(rows, lambda, p, q);
     double pq = 0.0;
     for (std::size_t a = 0; a < n; ++a) pq += p[a] * q[a];
@@ -279,23 +282,22 @@ void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>
   }
 }
 
-// Newton's method on the conditions, for a reflector whose coordinate ascent settles slowly
-// (the room's floor patches, with about 2,000 sources each, took up to 3,000 sweeps). The
+// Newton's method on the conditions of eq. 9, for a reflector whose coordinate ascent settles
+// slowly (the room's floor patches, with about 2,000 sources each, took up to 3,000 sweeps). The
 // Jacobian of tau_a F_a is symmetric and weakly diagonally dominant with positive entries,
 //   J_ab = C_ab / (lambda_a + lambda_b)^2,  J_aa = (c_aa + c_aE) / lambda_a^2 + sum_b J_ab,
 // so each step solves J delta = -tau F by conjugate gradients and is halved until it stays in
-// the domain and lowers |F|. The lambdas are kept after every step taken. Returns false when a
-// step finds no decrease (the caller goes on with the ascent from there).
-bool newton(std::vector<Row>& rows, int steps) {
+// the domain and lowers |F|. The lambdas are kept after every step taken. Returns whether every
+// row settled (else the caller goes on with the ascent from there).
+bool newton(std::vector<Row>& rows) {
   const std::size_t n = rows.size();
   std::vector<double> lambda(n), f, f_trial, trial(n), g(n), delta;
   for (std::size_t a = 0; a < n; ++a) lambda[a] = rows[a].lambda;
   if (!conditions(rows, lambda, f)) return false;
-  for (int step = 0; step < steps; ++step) {
+  for (int step = 0; step < kNewtonSteps; ++step) {
     const double f_norm = norm(f);
-    if (!(f_norm > 0.0)) break;
     for (std::size_t a = 0; a < n; ++a) g[a] = -rows[a].tau * f[a];
-    conjugate_gradients(rows, lambda, g, delta);
+    conjugate_gradients(rows, lambda, g, std::clamp(f_norm, 1e-12, 0.1), delta);
     bool moved = false;
     for (double t = 1.0; t > 1e-6 && !moved; t *= 0.5) {
       for (std::size_t a = 0; a < n; ++a) trial[a] = lambda[a] + t * delta[a];
@@ -305,9 +307,9 @@ bool newton(std::vector<Row>& rows, int steps) {
     lambda.swap(trial);
     f.swap(f_trial);
     for (std::size_t a = 0; a < n; ++a) rows[a].lambda = lambda[a];
-    if (!(worst_residual(rows) >= kBalanceTolerance)) break;
+    if (!(worst_residual(rows) >= kBalanceTolerance)) return true;
   }
-  return true;
+  return false;
 }
 
 // Coordinate ascent over the observed rows, with Newton steps once it is slow; returns the
@@ -323,9 +325,9 @@ double ascend(std::vector<Row>& rows) {
     }
     worst = worst_residual(rows);
     if (!(worst >= kBalanceTolerance)) break;  // also leaves on NaN
-    // Slow: Newton's method from here. Settled, or not settling (the caller then adds the
-    // prior), it ends the ascent; a step that finds no decrease leaves it to the sweeps.
-    if (sweep + 1 == kSweepsBeforeNewton && newton(rows, kNewtonSteps)) {
+    // Slow: Newton's method from here; if it does not settle every row, the sweeps go on from
+    // where it left the lambdas.
+    if (sweep + 1 == kSweepsBeforeNewton && newton(rows)) {
       worst = worst_residual(rows);
       break;
     }
