@@ -220,8 +220,8 @@ double norm(const std::vector<double>& v) {
   return std::sqrt(s);
 }
 
-// Row a of the Jacobian of tau F (below) at lambda: its diagonal entry, and v's product with the
-// row (the rows not solved for hold their lambdas, so their entries are 0).
+// The Jacobian of tau F (below) at lambda: row a's diagonal entry, and out = J v given those
+// entries (the rows not solved for hold their lambdas, so their entries are 0).
 double jacobian_diagonal(const std::vector<Row>& rows, const std::vector<double>& lambda,
                          std::size_t a) {
   const Row& r = rows[a];
@@ -232,11 +232,12 @@ double jacobian_diagonal(const std::vector<Row>& rows, const std::vector<double>
 }
 
 void jacobian_times(const std::vector<Row>& rows, const std::vector<double>& lambda,
-                    const std::vector<double>& v, std::vector<double>& out) {
+                    const std::vector<double>& diagonal, const std::vector<double>& v,
+                    std::vector<double>& out) {
   for (std::size_t a = 0; a < rows.size(); ++a) {
     out[a] = 0.0;
     if (!active(rows[a])) continue;
-    double s = jacobian_diagonal(rows, lambda, a) * v[a];
+    double s = diagonal[a] * v[a];
     for (const auto& [b, c] : rows[a].partner)
       if (active(rows[b])) s += c / ((lambda[a] + lambda[b]) * (lambda[a] + lambda[b])) * v[b];
     out[a] = s;
@@ -250,10 +251,10 @@ void jacobian_times(const std::vector<Row>& rows, const std::vector<double>& lam
 void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>& lambda,
                          const std::vector<double>& g, double tolerance, std::vector<double>& x) {
   const std::size_t n = rows.size();
-  std::vector<double> diag(n, 1.0);
+  std::vector<double> jaa(n, 0.0), diag(n, 1.0);  // J's diagonal, and the preconditioner's
   for (std::size_t a = 0; a < n; ++a) {
-    const double d = active(rows[a]) ? jacobian_diagonal(rows, lambda, a) : 0.0;
-    if (d > 0.0) diag[a] = d;
+    if (active(rows[a])) jaa[a] = jacobian_diagonal(rows, lambda, a);
+    if (jaa[a] > 0.0) diag[a] = jaa[a];
   }
   x.assign(n, 0.0);
   std::vector<double> res = g, z(n), p(n), q(n);
@@ -264,7 +265,7 @@ void conjugate_gradients(const std::vector<Row>& rows, const std::vector<double>
   }
   const double g_norm = norm(g);
   for (int it = 0; it < kNewtonIterations && norm(res) > tolerance * g_norm; ++it) {
-    jacobian_times(rows, lambda, p, q);
+    jacobian_times(rows, lambda, jaa, p, q);
     double pq = 0.0;
     for (std::size_t a = 0; a < n; ++a) pq += p[a] * q[a];
     if (!(pq > 0.0)) break;
