@@ -23,17 +23,40 @@ LightSampler::LightSampler(const PatchSet& patches, const std::vector<double>& w
     select_pdf_[p] = weight[p] / total_;
   }
   if (!cdf_.empty()) cdf_.back() = 1.0;
+  const std::size_t n = emitters_.size();
+  guide_.resize(n);
+  std::size_t e = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double u = static_cast<double>(k) / static_cast<double>(n);
+    while (e + 1 < n && !(cdf_[e] > u)) ++e;
+    guide_[k] = static_cast<std::uint32_t>(e);
+  }
+  flat_.resize(patches.size());
+  for (PatchId p : emitters_) flat_[p] = patches[p].is_triangle() || patches[p].is_parallelogram();
 }
 
 size_t LightSampler::choose(double u) const {
-  auto e = static_cast<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), u) - cdf_.begin());
-  return std::min(e, emitters_.size() - 1);
+  // The first emitter whose cdf exceeds u (as std::upper_bound finds it), searched from the
+  // guide's entry for u: every emitter before that entry has cdf <= k / n <= u (the step back
+  // is for a u within rounding below k / n).
+  const std::size_t n = emitters_.size();
+  const double scaled = std::max(u, 0.0) * static_cast<double>(n);
+  std::size_t e = guide_[std::min(static_cast<std::size_t>(scaled), n - 1)];
+  while (e > 0 && cdf_[e - 1] > u) --e;
+  while (e + 1 < n && !(cdf_[e] > u)) ++e;
+  return e;
 }
 
 LightSample LightSampler::point_on(size_t e, const Vec2& u_point) const {
   LightSample s;
   s.patch = emitters_[e];
   const Patch& light = patches_[s.patch];
+  if (flat_[s.patch] && !light.is_triangle()) {  // a parallelogram: no tangents to take
+    s.point = light.point(u_point.x(), u_point.y());
+    s.uv = u_point;
+    s.area_pdf = select_pdf_[s.patch] / light.area;
+    return s;
+  }
   double density = 1.0;
   s.point = light.sample(u_point, &density, &s.uv);
   s.area_pdf = density > 0.0 ? select_pdf_[s.patch] / (light.area * density) : 0.0;
@@ -54,7 +77,8 @@ LightSample LightSampler::sample(const Vec2& u) const {
 double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
   const Patch& q = patches_[p];
   double select = select_pdf_[p];
-  if (q.is_triangle()) return select / q.area;
+  if (!(select > 0.0)) return 0.0;
+  if (flat_[p]) return select / q.area;
   // Patch::sample maps the unit square bilinearly, so its area density is 1 / |du x dv|, which
   // varies over a quad that is not a parallelogram: find y's parameters (Gauss-Newton on the
   // bilinear map, exact in one step for a parallelogram) and evaluate it there.

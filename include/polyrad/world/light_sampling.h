@@ -7,11 +7,14 @@
 //   double w = power_heuristic(n_light * s.area_pdf * dist2 / cos_y, n_brdf * brdf_pdf);
 //
 // A patch is chosen with probability weight / sum of weights, then a point on it by
-// Patch::sample, so the area density of the point is select / (area * map density).
-// Cost: O(log emitters) a sample; O(patches) memory.
+// Patch::sample, so the area density of the point is select / (area * map density); the map
+// density is 1 on triangles and parallelograms, which are told once, when the sampler is made.
+// Cost: O(1) a sample on average (a guide table of one entry per emitter starts the search of
+// the cumulative weights); O(patches) memory.
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "polyrad/geometry/mesher.h"
@@ -61,7 +64,10 @@ class LightSampler {
   const PatchSet& patches_;
   std::vector<PatchId> emitters_;  // patches with a positive weight
   std::vector<double> cdf_;        // cumulative selection probability, last = 1
+  // guide_[k]: the first emitter whose cdf_ exceeds k / emitters (choose starts there).
+  std::vector<std::uint32_t> guide_;
   std::vector<double> select_pdf_;
+  std::vector<char> flat_;  // per patch: a triangle or a parallelogram (map density 1)
   double total_ = 0.0;
 };
 
