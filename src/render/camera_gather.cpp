@@ -68,13 +68,21 @@ void CornerAverages::subtract_emission(PatchId p, double u, double v, const Rgbf
   }
 }
 
-void add_diffuse(const GatherContext& c, PatchId p, double u, double v, const Rgbf& w,
+DiffusePoint locate(const GatherContext& c, PatchId p, double u, double v) {
+  if (const ElementHierarchy* h = c.layout.hierarchy.get()) {
+    const LeafPoint leaf = h->leaf_at(p, u, v);
+    return {p, u, v, leaf, leaf.diameter};
+  }
+  return {p, u, v, LeafPoint{}, c.diameters[static_cast<std::size_t>(p)]};
+}
+
+void add_diffuse(const GatherContext& c, const DiffusePoint& at, const Rgbf& w,
                  std::vector<Term>& terms) {
   const bool smooth = c.options.diffuse == DiffuseMode::kSmooth;
   if (const ElementHierarchy* h = c.layout.hierarchy.get()) {
     thread_local std::vector<std::pair<std::int32_t, double>> weights;
     weights.clear();
-    h->diffuse_weights(p, u, v, smooth, weights);
+    h->diffuse_weights(at.leaf, smooth, weights);
     for (const auto& [leaf, s] : weights)
       terms.push_back({leaf,
                        {static_cast<float>(w[0] * s), static_cast<float>(w[1] * s),
@@ -82,23 +90,27 @@ void add_diffuse(const GatherContext& c, PatchId p, double u, double v, const Rg
     return;
   }
   if (smooth)
-    c.corners.add(p, u, v, w, terms);
+    c.corners.add(at.patch, at.u, at.v, w, terms);
   else
-    terms.push_back({p, w});
+    terms.push_back({at.patch, w});
 }
 
-void merge_terms(std::vector<Term>& terms) {
-  std::sort(terms.begin(), terms.end(),
-            [](const Term& a, const Term& b) { return a.column < b.column; });
-  size_t w = 0;
-  for (size_t r = 0; r < terms.size(); ++r) {
-    if (w > 0 && terms[w - 1].column == terms[r].column) {
-      for (int c = 0; c < 3; ++c) terms[w - 1].w[c] += terms[r].w[c];
+void TermMerger::merge(std::vector<Term>& terms) {
+  // In place: the merged entry k lies at or before the term that made it.
+  std::size_t n = 0;
+  for (const Term& t : terms) {
+    std::int32_t& s = slot_[static_cast<std::size_t>(t.column)];
+    if (s < 0) {
+      s = static_cast<std::int32_t>(n);
+      terms[n++] = t;
     } else {
-      terms[w++] = terms[r];
+      for (int c = 0; c < 3; ++c) terms[static_cast<std::size_t>(s)].w[c] += t.w[c];
     }
   }
-  terms.resize(w);
+  terms.resize(n);
+  for (const Term& t : terms) slot_[static_cast<std::size_t>(t.column)] = -1;
+  std::sort(terms.begin(), terms.end(),
+            [](const Term& a, const Term& b) { return a.column < b.column; });
 }
 
 namespace {
@@ -263,8 +275,9 @@ class GatherRows {
         options_(options),
         corners_(world.patches(), corner_weights(world, layout)),
         reflectors_(world.patches(), reflector_weights(world, layout, options)),
+        diameters_(diameters(world.patches())),
         context_{camera_,  world.patches(), world.materials(), world.caster(), layout,
-                 options_, corners_,        world.lights(),    reflectors_},
+                 options_, corners_,        world.lights(),    reflectors_,    diameters_},
         unknowns_(layout.size()),
         patches_(static_cast<std::int64_t>(world.patches().size())) {
     if (options.pixel_grid < 1 || options.pixel_grid > 16)
@@ -289,56 +302,65 @@ class GatherRows {
   int height() const { return camera_.height; }
   const GatherOptions& options() const { return options_; }
 
+  // One image row's part of a block, built by one thread.
+  struct Piece {
+    Csr<Rgbf> g, e;
+  };
+
   // Rows [r0, r1) into g and e (replaced), in parallel over image rows of pixels; returns the
   // rays cast. Each thread merges a pixel's terms in its own scratch and appends the merged row
-  // to the piece of the block it is building, so nothing is allocated per pixel.
+  // to the piece of the block it is building, so nothing is allocated per pixel. piece holds
+  // the pieces; a caller that builds block after block passes the same vector (and g and e),
+  // whose storage is then reused: freed and mapped again for every block of 1,024 pixels, it
+  // cost the mirror cube's render 5 percent of its time in page faults and copies.
   long long build(std::int64_t r0, std::int64_t r1, Csr<Rgbf>& g, Csr<Rgbf>& e,
-                  Progress* progress = nullptr) const {
+                  std::vector<Piece>& piece, Progress* progress = nullptr) const {
     const std::int64_t w = camera_.width;
     const bool final_gather = options_.kind == GatherKind::kFinal;
-    struct Piece {
-      Csr<Rgbf> g, e;
-    };
     const std::int64_t chunk = w;  // pixels per piece: one image row
     const std::int64_t pieces = (r1 - r0 + chunk - 1) / chunk;
-    std::vector<Piece> piece(pieces);
+    if (static_cast<std::int64_t>(piece.size()) < pieces) piece.resize(pieces);
+    for (std::int64_t k = 0; k < pieces; ++k) {
+      piece[k].g.clear();
+      piece[k].e.clear();
+    }
     long long rays = 0;
 #pragma omp parallel
     {
       PixelTerms terms;
+      TermMerger merge_unknowns(unknowns_), merge_emission(patches_);
 #pragma omp for schedule(dynamic, 1) reduction(+ : rays)
       for (std::int64_t k = 0; k < pieces; ++k) {
         Piece& out = piece[k];
-        for (std::int64_t r = r0 + k * chunk; r < std::min(r1, r0 + (k + 1) * chunk); ++r) {
+        const std::int64_t end = std::min(r1, r0 + (k + 1) * chunk);
+        for (std::int64_t r = r0 + k * chunk; r < end; ++r) {
           const int x = static_cast<int>(r % w), y = static_cast<int>(r / w);
           rays += final_gather ? final_gather_pixel(context_, x, y, terms)
                                : patch_gather_pixel(context_, x, y, terms);
-          merge_terms(terms.unknowns);
-          merge_terms(terms.emission);
+          merge_unknowns.merge(terms.unknowns);
+          merge_emission.merge(terms.emission);
           append_row(terms.unknowns, out.g);
           if (final_gather) append_row(terms.emission, out.e);
         }
         if (progress) progress->advance();
       }
     }
-    g = Csr<Rgbf>{};
-    e = Csr<Rgbf>{};
+    g.clear();
+    e.clear();
     g.cols = unknowns_;
     e.cols = final_gather ? patches_ : 0;
     std::size_t ng = 0, ne = 0;
-    for (const Piece& p : piece) {
-      ng += p.g.column.size();
-      ne += p.e.column.size();
+    for (std::int64_t k = 0; k < pieces; ++k) {
+      ng += piece[k].g.column.size();
+      ne += piece[k].e.column.size();
     }
     g.column.reserve(ng);
     g.value.reserve(ng);
     e.column.reserve(ne);
     e.value.reserve(ne);
-    for (Piece& p : piece) {
-      append(p.g, g);
-      p.g = Csr<Rgbf>{};
-      if (final_gather) append(p.e, e);
-      p.e = Csr<Rgbf>{};
+    for (std::int64_t k = 0; k < pieces; ++k) {
+      append(piece[k].g, g);
+      if (final_gather) append(piece[k].e, e);
     }
     return rays;
   }
@@ -363,6 +385,11 @@ class GatherRows {
       if (layout.link_start[p + 1] > layout.link_start[p]) weight[p] = world.patches()[p].area;
     return weight;
   }
+  static std::vector<double> diameters(const PatchSet& patches) {
+    std::vector<double> d(patches.size());
+    for (std::size_t p = 0; p < d.size(); ++p) d[p] = patches[p].diameter();
+    return d;
+  }
   // Appends one merged row, without the entries whose weights are all zero (a final-gather
   // shading ray whose path class no finer ray met is weighted zero).
   static void append_row(const std::vector<Term>& terms, Csr<Rgbf>& m) {
@@ -386,6 +413,7 @@ class GatherRows {
   const GatherOptions options_;
   const CornerAverages corners_;
   const LightSampler reflectors_;
+  const std::vector<double> diameters_;
   const GatherContext context_;
   const Eigen::Index unknowns_;
   const std::int64_t patches_;
@@ -410,8 +438,9 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
   g.options = options;
   Progress progress(options.kind == GatherKind::kFinal ? "final gather" : "camera gather",
                     camera.height);
-  g.rays =
-      rows.build(0, static_cast<std::int64_t>(camera.width) * camera.height, g.g, g.e, &progress);
+  std::vector<GatherRows::Piece> pieces;
+  g.rays = rows.build(0, static_cast<std::int64_t>(camera.width) * camera.height, g.g, g.e, pieces,
+                      &progress);
   progress.finish();
   g.seconds = watch.seconds();
   return g;
@@ -444,10 +473,11 @@ GatherWork for_each_gather_block(
   Progress progress(rows.options().kind == GatherKind::kFinal ? "final gather" : "camera gather",
                     rows.height());
   Csr<Rgbf> g, e;
+  std::vector<GatherRows::Piece> pieces;  // with g and e, reused from block to block
   for (std::int64_t r0 = 0; r0 < total; r0 += block) {
     const std::int64_t r1 = std::min(total, r0 + block);
     const Stopwatch watch;
-    work.rays += rows.build(r0, r1, g, e, &progress);
+    work.rays += rows.build(r0, r1, g, e, pieces, &progress);
     work.seconds += watch.seconds();
     work.nnz += g.nnz() + e.nnz();
     work.bytes = std::max(work.bytes, g.bytes() + e.bytes());

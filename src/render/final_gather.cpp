@@ -427,38 +427,35 @@ class FinalGatherer {
       link_mis = power_heuristic(count * pdf,
                                  reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
     add_link(j, sh.i, scaled(w, link_mis), terms);
-    const double near = near_share(sh.x, h);
+    const DiffusePoint at = locate(c_, j, h.u, h.v);
+    const double near = near_share(sh.x, h.position, at.diameter);
     long long rays = 0;
-    if (near < 1.0) add_reflected(j, h.u, h.v, scaled(w, 1.0 - near), terms);
+    if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms);
     if (near > 0.0) rays += near_gather(h, -dir, w * near, rng, terms);
     return rays;
   }
 
   // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects.
-  void add_reflected(PatchId j, double u, double v, const Rgbf& w, PixelTerms& terms) const {
-    add_diffuse(j, u, v, w, terms);
+  void add_reflected(const DiffusePoint& at, const Rgbf& w, PixelTerms& terms) const {
+    gather_detail::add_diffuse(c_, at, w, terms.unknowns);
+    const PatchId j = at.patch;
     if (o_.diffuse == DiffuseMode::kSmooth) {
-      c_.corners.subtract_emission(j, u, v, w, terms.emission);
+      c_.corners.subtract_emission(j, at.u, at.v, w, terms.emission);
     } else if (c_.patches[j].emitter) {
       terms.emission.push_back({j, {-w[0], -w[1], -w[2]}});
     }
   }
 
-  // How much of the diffuse light reflected at h is gathered again there instead of read from
-  // the mesh: 1 within near_distance diameters of the unknown read at h (patch j, or the leaf
-  // under h) from x, 0 beyond twice that, linear between. An unknown's B averages its light over
-  // its area: seen from closer than its size, the average is the wrong value (a floor patch half
-  // in a block's contact shadow, read from the block's base), which a gather one bounce further
-  // does not suffer. A leaf is never larger than its root, so a hit beyond twice the root's
-  // size needs no lookup.
-  double near_share(const Vec3& x, const Hit& h) const {
+  // How much of the diffuse light reflected at a hit y is gathered again there instead of read
+  // from the mesh: 1 within near_distance diameters (size) of the unknown read at y (its patch,
+  // or the leaf under it) from x, 0 beyond twice that, linear between. An unknown's B averages
+  // its light over its area: seen from closer than its size, the average is the wrong value (a
+  // floor patch half in a block's contact shadow, read from the block's base), which a gather
+  // one bounce further does not suffer.
+  double near_share(const Vec3& x, const Vec3& y, double size) const {
     if (near_count_ == 0 || o_.near_distance <= 0.0) return 0.0;
-    const double d = (h.position - x).norm() / o_.near_distance;
-    double size = c_.patches[h.patch].diameter();
-    if (d >= 2.0 * size) return 0.0;
-    if (const ElementHierarchy* t = c_.layout.hierarchy.get())
-      size = t->elements()[t->leaf_at(h.patch, h.u, h.v).element].shape.diameter();
     if (!(size > 0.0)) return 0.0;  // a degenerate patch: read it
+    const double d = (y - x).norm() / o_.near_distance;
     return std::clamp(2.0 - d / size, 0.0, 1.0);
   }
 
@@ -506,7 +503,7 @@ class FinalGatherer {
                                 lights * solid_angle_pdf(c_.lights, z, y, dir));
         if (mis > 0.0) terms.emission.push_back({k, scaled(wz, mis)});
       }
-      add_reflected(k, z.u, z.v, scaled(wz, 1.0), terms);
+      add_reflected(locate(c_, k, z.u, z.v), scaled(wz, 1.0), terms);
       add_link(k, j, scaled(wz, 1.0), terms);
     }
     return rays;

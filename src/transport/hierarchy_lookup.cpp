@@ -102,14 +102,14 @@ LeafPoint ElementHierarchy::leaf_at(PatchId root, double u, double v) const {
   }
   while (lookup_[e].first_child >= 0) e = child_holding(lookup_[e], triangle, q);
   const Vec2 st = local_params(lookup_[e].uv.data(), triangle, q);
-  return {e, lookup_[e].leaf, st.x(), st.y()};
+  return {e, lookup_[e].leaf, st.x(), st.y(), lookup_[e].diameter};
 }
 
 void ElementHierarchy::build_lookup(const PatchSet& roots) {
   lookup_.resize(elements_.size());
   for (std::size_t k = 0; k < elements_.size(); ++k) {
     const Element& e = elements_[k];
-    lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}};
+    lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}, e.shape.diameter()};
   }
   skewed_.resize(roots.size());
   // Each root's deepest level (roots are elements 0 to R - 1, at level 0), at most
@@ -143,7 +143,11 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
 
 void ElementHierarchy::diffuse_weights(PatchId root, double u, double v, bool smooth,
                                        std::vector<std::pair<std::int32_t, double>>& out) const {
-  const LeafPoint lp = leaf_at(root, u, v);
+  diffuse_weights(leaf_at(root, u, v), smooth, out);
+}
+
+void ElementHierarchy::diffuse_weights(const LeafPoint& lp, bool smooth,
+                                       std::vector<std::pair<std::int32_t, double>>& out) const {
   if (!smooth) {
     out.emplace_back(lp.leaf, 1.0);
     return;

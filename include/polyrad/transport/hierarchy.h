@@ -160,6 +160,7 @@ struct LeafPoint {
   std::int32_t element = -1;  // the leaf element
   std::int32_t leaf = -1;     // its unknown
   double s = 0.0, t = 0.0;    // parameters on the leaf (Patch::point of its shape)
+  double diameter = 0.0;      // the leaf's (Patch::diameter of its shape)
 };
 
 struct HierarchyPass {
@@ -329,14 +330,19 @@ class ElementHierarchy {
   // exposed-area average of the leaves of the same object and orientation that touch it.
   void diffuse_weights(PatchId root, double u, double v, bool smooth,
                        std::vector<std::pair<std::int32_t, double>>& out) const;
+  // The same for a point already located (leaf_at), which the final gather also asks its leaf's
+  // size of: one descent a hit instead of two.
+  void diffuse_weights(const LeafPoint& point, bool smooth,
+                       std::vector<std::pair<std::int32_t, double>>& out) const;
 
-  // What leaf_at descends through: per element its children, its unknown and its parameter
-  // corners 0, 1, 2. 64 bytes against an Element's 352, so that the descent of each of the
-  // final gather's hits stays in cache (on the mirror cube the Element's first_child missed it
-  // and leaf_at took 15 percent of the render).
+  // What leaf_at descends through: per element its children, its unknown, its parameter
+  // corners 0, 1, 2 and its diameter. 64 bytes against an Element's 352, so that the descent of
+  // each of the final gather's hits stays in cache (on the mirror cube the Element's
+  // first_child missed it and leaf_at took 15 percent of the render).
   struct LookupNode {
     std::int32_t first_child = -1, leaf = -1;
     std::array<Vec2, 3> uv{};
+    double diameter = 0.0;
   };
 
  private:

@@ -37,6 +37,13 @@ struct Csr {
     return start.size() * sizeof(std::int64_t) + column.size() * sizeof(std::int32_t) +
            value.size() * sizeof(V);
   }
+  // Empties the matrix and keeps its storage, so that refilling it maps no new pages.
+  void clear() {
+    rows = 0;
+    start.assign(1, 0);
+    column.clear();
+    value.clear();
+  }
   // Appends one row from (column, value) pairs already in column order.
   void push_row() {
     ++rows;
