@@ -109,7 +109,7 @@ void ElementHierarchy::build_lookup(const PatchSet& roots) {
   lookup_.resize(elements_.size());
   for (std::size_t k = 0; k < elements_.size(); ++k) {
     const Element& e = elements_[k];
-    lookup_[k] = {e.first_child, e.leaf, {e.uv[0], e.uv[1], e.uv[2]}, e.shape.diameter()};
+    lookup_[k] = {e.first_child, e.leaf, e.shape.diameter(), {e.uv[0], e.uv[1], e.uv[2]}};
   }
   skewed_.resize(roots.size());
   // Each root's deepest level (roots are elements 0 to R - 1, at level 0), at most

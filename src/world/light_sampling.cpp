@@ -40,8 +40,12 @@ size_t LightSampler::choose(double u) const {
   // guide's entry for u: every emitter before that entry has cdf <= k / n <= u (the step back
   // is for a u within rounding below k / n).
   const std::size_t n = emitters_.size();
-  const double scaled = std::max(u, 0.0) * static_cast<double>(n);
-  std::size_t e = guide_[std::min(static_cast<std::size_t>(scaled), n - 1)];
+  // NaN and u >= 1 take the last emitter, as the search would; no cast of either to an index.
+  const std::size_t k = !(u < 1.0) ? n - 1
+                        : u > 0.0
+                            ? std::min(static_cast<std::size_t>(u * static_cast<double>(n)), n - 1)
+                            : 0;
+  std::size_t e = guide_[k];
   while (e > 0 && cdf_[e - 1] > u) --e;
   while (e + 1 < n && !(cdf_[e] > u)) ++e;
   return e;

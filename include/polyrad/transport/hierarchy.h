@@ -335,15 +335,16 @@ class ElementHierarchy {
   void diffuse_weights(const LeafPoint& point, bool smooth,
                        std::vector<std::pair<std::int32_t, double>>& out) const;
 
-  // What leaf_at descends through: per element its children, its unknown, its parameter
-  // corners 0, 1, 2 and its diameter. 64 bytes against an Element's 352, so that the descent of
-  // each of the final gather's hits stays in cache (on the mirror cube the Element's
-  // first_child missed it and leaf_at took 15 percent of the render).
+  // What leaf_at descends through: per element its children, its unknown, its diameter and its
+  // parameter corners 0, 1, 2. 64 bytes against an Element's 352, so that the descent of each
+  // of the final gather's hits stays in cache (on the mirror cube the Element's first_child
+  // missed it and leaf_at took 15 percent of the render).
   struct LookupNode {
     std::int32_t first_child = -1, leaf = -1;
-    std::array<Vec2, 3> uv{};
     double diameter = 0.0;
+    std::array<Vec2, 3> uv{};
   };
+  static_assert(sizeof(LookupNode) == 64, "a lookup node is one cache line");
 
  private:
   friend class HierarchyBuilder;
