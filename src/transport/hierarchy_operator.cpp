@@ -177,11 +177,31 @@ void HierarchicalOperator::specular_rows(std::int64_t x, const double* b, const 
   }
 }
 
+// The operator's node buffers while free, else buffers of this call's own; either way zeroed to
+// `size` doubles each.
+class HierarchicalOperator::BorrowedBuffers {
+ public:
+  BorrowedBuffers(const HierarchicalOperator& op, std::size_t size)
+      : lock_(op.buffers_mutex_, std::try_to_lock), buffers_(lock_ ? op.buffers_ : own_) {
+    buffers_.b.assign(size, 0.0);
+    buffers_.h.assign(size, 0.0);
+  }
+  std::vector<double>& b() { return buffers_.b; }
+  std::vector<double>& h() { return buffers_.h; }
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+  NodeBuffers own_;
+  NodeBuffers& buffers_;
+};
+
 void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index width,
                                  int channel) const {
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   const auto n = static_cast<std::int32_t>(nodes());
-  std::vector<double> b(3 * static_cast<std::size_t>(n) * width), h(b.size());
+  BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(n) * width);
+  std::vector<double>& b = buffers.b();
+  std::vector<double>& h = buffers.h();
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::int32_t k = 0; k < trees; ++k)
     pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
@@ -225,7 +245,9 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
 void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   const Eigen::Index width = 3;
-  std::vector<double> b(3 * static_cast<std::size_t>(nodes()) * width), h(b.size());
+  BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(nodes()) * width);
+  std::vector<double>& b = buffers.b();
+  std::vector<double>& h = buffers.h();
   const Eigen::Index leaves_count = leaves();
   double* s = u.data() + width * leaves_count;  // the specular links, after the leaves
   for (std::int32_t k = 0; k < trees; ++k)

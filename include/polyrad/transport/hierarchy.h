@@ -85,6 +85,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -245,8 +246,9 @@ struct RootSpecular {
 };
 
 // The operator of eq. H2 on the leaves (see the top of this file), with the root link unknowns
-// of eq. H3 after them when the scene has lobes. Immutable once built; what TransportOperator
-// holds and forwards to when its unknowns are a hierarchy's leaves.
+// of eq. H3 after them when the scene has lobes. Immutable once built but for the node buffers
+// it reuses (below); what TransportOperator holds and forwards to when its unknowns are a
+// hierarchy's leaves.
 class HierarchicalOperator {
  public:
   Eigen::Index leaves() const { return static_cast<Eigen::Index>(leaf_node_.size()); }
@@ -298,6 +300,19 @@ class HierarchicalOperator {
   // that each leaf of s sends along the link by the form factor at its own place.
   Csr<std::array<float, 5>> links_;
   std::vector<std::array<float, 2>> centroid_;  // each node's centroid_uv
+
+  // The pulled and gathered values of every node (3 x width doubles each, b and h) that apply()
+  // and gauss_seidel_sweep() work in: kept from call to call, with the widest call's size, since
+  // a solve or a precompute applies the operator hundreds of times and polyrad has glibc map
+  // every block of 256 KiB or more afresh (util/machine.h), so new buffers page-faulted in
+  // every call (the mirror cube's hierarchical precompute: 12.9 -> 10.4 s, peak 240 -> 262
+  // MB). One call at a time uses them; a call that finds them in use makes its own.
+  struct NodeBuffers {
+    std::vector<double> b, h;
+  };
+  class BorrowedBuffers;
+  mutable std::mutex buffers_mutex_;
+  mutable NodeBuffers buffers_;
 };
 
 // The element trees, their links and the operator.
