@@ -305,8 +305,9 @@ class HierarchicalOperator {
   // and gauss_seidel_sweep() work in: kept from call to call, with the widest call's size, since
   // a solve or a precompute applies the operator hundreds of times and polyrad has glibc map
   // every block of 256 KiB or more afresh (util/machine.h), so new buffers page-faulted in
-  // every call (the mirror cube's hierarchical precompute: 12.9 -> 10.4 s, peak 240 -> 262
-  // MB). One call at a time uses them; a call that finds them in use makes its own.
+  // every call (paired runs of the mirror cube's hierarchical precompute: 13.0 / 13.5 -> 11.0 /
+  // 11.6 s, peak 240 -> 259 MB; the room's: 245 -> 143 s, the same peak). One call at a time
+  // uses them; a call that finds them in use makes its own.
   struct NodeBuffers {
     std::vector<double> b, h;
   };
