@@ -209,6 +209,50 @@ TEST(Series, ViewModeIsTheGatherOfTheSolution) {
   EXPECT_LT(worst, 1e-4);
 }
 
+// The width of a batch only bounds the memory: each column's products and gather are its own, so
+// batches narrowed by batch_bytes give the same operator to the bit, in view and solution rows,
+// on the uniform mesh and on a hierarchy with specular links (the case the bound is for).
+TEST(Series, NarrowBatchesGiveTheSameOperator) {
+  SeriesOptions o;
+  o.batch_bytes = 72.0 * 1000.0 * 10.0;         // ten columns of 1,000 unknowns
+  EXPECT_EQ(series_batch(o, 1000.0, 25.0), 9);  // three batches: 9, 9, 7
+  EXPECT_EQ(series_batch(o, 1000.0, 10.0), 10);
+  EXPECT_EQ(series_batch(o, 1e9, 25.0), 1);  // at least one column
+  o.batch_bytes = 1e30;
+  EXPECT_EQ(series_batch(o, 1e9, 200.0), 50);  // at most column_batch (64): 4 batches of 50
+  SceneOverrides coarse;
+  coarse.patch_size = 100;
+  SystemOptions hierarchical;
+  hierarchical.mesh = MeshKind::kHierarchical;
+  hierarchical.hierarchy.link_tolerance = 0.2;
+  for (const SystemOptions& system : {SystemOptions{}, hierarchical}) {
+    auto sys = build_system(load_scene(test::scene_path("cornell-mirror-cube")), coarse, system);
+    for (SeriesOutput output : {SeriesOutput::kView, SeriesOutput::kSolution}) {
+      if (output == SeriesOutput::kSolution && sys->hierarchy) continue;  // view rows only
+      SeriesOptions wide;
+      wide.order = 5;
+      wide.output = output;
+      wide.progress = false;
+      // A final gather, so that view rows have their emission term E too, with few samples.
+      wide.gather = GatherOptions::final_gather();
+      wide.gather.gather_samples = wide.gather.light_samples = 4;
+      wide.gather.reflector_samples = 4;
+      wide.gather.emission_grid = 2;
+      wide.gather.pixel_grid = 1;
+      SeriesOptions narrow = wide;
+      narrow.batch_bytes = 72.0 * static_cast<double>(sys->transport.size()) * 3.0;
+      const SeriesOperator a = precompute_series(sys->transport, *sys->world, wide);
+      const SeriesOperator b = precompute_series(sys->transport, *sys->world, narrow);
+      ASSERT_GT(a.cols(), 3);  // the narrow run took several batches
+      ASSERT_EQ(a.rows(), b.rows());
+      std::vector<float> e = a.column_emission(), ya(3 * a.rows()), yb(3 * b.rows());
+      a.apply(e.data(), ya.data());
+      b.apply(e.data(), yb.data());
+      EXPECT_EQ(ya, yb) << (sys->hierarchy ? "hierarchical" : "uniform");
+    }
+  }
+}
+
 // ---- the file ---------------------------------------------------------------------------------
 
 TEST(Series, FileRoundTripsAndIsRefusedWhenDamaged) {

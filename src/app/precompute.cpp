@@ -29,7 +29,8 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
                                double max_memory_bytes) {
   const World& w = *sys.world;
   const TransportOperator& t = sys.transport;
-  const auto columns = static_cast<double>(series_columns(w.patches(), w.scene(), series.basis).size());
+  const auto columns =
+      static_cast<double>(series_columns(w.patches(), w.scene(), series.basis).size());
   const auto unknowns = static_cast<double>(t.size());
   const std::int64_t pixels = static_cast<std::int64_t>(w.camera().width) * w.camera().height;
   const bool view = series.output == SeriesOutput::kView;
@@ -42,7 +43,8 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
              (view ? gather_memory(series.gather, pixels, true) : 0.0);
   if (sys.hierarchy) {
     // Each application of a hierarchical T holds two node-sized blocks (gathered and pulled).
-    const double batch = std::min(columns, static_cast<double>(std::max(1, series.column_batch)));
+    const double batch =
+        std::min(columns, static_cast<double>(series_batch(series, unknowns, columns)));
     m.system = static_cast<double>(sys.hierarchy->op()->nodes()) * 2.0 * 3.0 * 8.0 * batch;
   }
   sys.estimated_memory_bytes = std::max(sys.estimated_memory_bytes, m.total());

@@ -371,11 +371,17 @@ std::int64_t pixels(const World& world, const Gather* gather) {
                 : static_cast<std::int64_t>(world.camera().width) * world.camera().height;
 }
 
+// P_K S of a batch of columns, kept in single precision until the gather reads it: every
+// batch's is held at once, unknowns x 3 values a column (on the room's hierarchy, 570,000
+// unknowns and 135 columns: 1.85 GB in doubles). The rounding, 6e-8 of each value, is far below the
+// series' tolerance, and the rows are summed in double and stored in float (or half) anyway.
+using KeptSum = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 // The view rows of each column batch, Q = E S + G P_K S (papers/glossy-radiosity.md, eq. 12):
 // sums[b] is P_K S of batch b, column_of[p] the column whose S lights patch p (or -1). The
 // gather is read block by block, once for all batches; a deferred one's build time goes to the
 // report.
-std::vector<FieldBlock> view_rows(const Gather& gather, const std::vector<FieldBlock>& sums,
+std::vector<FieldBlock> view_rows(const Gather& gather, const std::vector<KeptSum>& sums,
                                   const std::vector<int>& column_of, int batch, std::int64_t rows,
                                   SeriesReport* report) {
   std::vector<FieldBlock> out;
@@ -418,18 +424,26 @@ std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& s
   return columns;
 }
 
+int series_batch(const SeriesOptions& o, double unknowns, double columns) {
+  const double most = std::max(1, o.column_batch);
+  const double fit = std::floor(o.batch_bytes / (72.0 * std::max(1.0, unknowns)));
+  const double width = std::clamp(fit, 1.0, most);
+  const double batches = std::ceil(std::max(1.0, columns) / width);
+  return static_cast<int>(std::ceil(std::max(1.0, columns) / batches));
+}
+
 double rows_memory(const SeriesOptions& o, double r, double u, double c) {
   // Counts in double: an absurd patch size must be refused, not overflow an integer first.
   const double value = o.precision == ValuePrecision::kHalf ? 6.0 : 12.0;
-  const double batch = std::min(c, static_cast<double>(std::max(1, o.column_batch)));
+  const double batch = std::min(c, static_cast<double>(series_batch(o, u, c)));
   const double batch_blocks = u * 3.0 * 8.0 * 3.0 * batch;  // the term, the next, the sum
   if (o.output == SeriesOutput::kView) {
-    // Every batch's P_K S is kept until the gather reads it. Beside them, first the batch's
-    // blocks while the series runs, then the pixel rows and the rows kept (24 + 16 bytes an
+    // Every batch's P_K S is kept, in floats, until the gather reads it. Beside them, first the
+    // batch's blocks while the series runs, then the pixel rows and the rows kept (24 + 16 bytes an
     // entry; later the kept rows, Q and its dense copy: 16 + 2 x 12 at most): not both at once.
     // Summing the two stages gave 1.5 times the measured peak on the mirror cube, whose links
     // make its unknowns (18,312) twenty times its patches.
-    return u * 3.0 * 8.0 * c + std::max(batch_blocks, r * c * 40.0);
+    return u * 3.0 * 4.0 * c + std::max(batch_blocks, r * c * 40.0);
   }
   // The batch's blocks, the rows kept, Q twice.
   return batch_blocks + r * c * (16.0 + 2.0 * value);
@@ -470,12 +484,12 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   const std::int64_t rows = view ? pixels(world, given_gather) : t.size();
   const std::vector<double>* flux = view ? nullptr : &t.flux_weight();
   RowPieces pieces(rows);
-  const int batch = std::max(1, o.column_batch);
+  const int batch = series_batch(o, static_cast<double>(t.size()), static_cast<double>(cols));
   Progress progress("series precompute", (cols + batch - 1) / batch * (terms.order + 1),
                     o.progress);
   // P_K S of each batch of columns. Solution rows are kept as they come; view rows wait for
   // the gather, which is then read once, block by block, for every batch (view_rows).
-  std::vector<FieldBlock> sums;
+  std::vector<KeptSum> sums;
   for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
     const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
     FieldBlock term = FieldBlock::Zero(t.size(), 3 * width);
@@ -488,7 +502,7 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
                                                           chebyshev, rho, progress))
                  : block_polynomial(t, std::move(term), terms.order, chebyshev, rho, progress);
     if (view)
-      sums.push_back(std::move(acc));
+      sums.push_back(acc.cast<float>());
     else
       pieces.add(acc, c0, width, q.columns, drop_thresholds(acc, width, o.drop, flux), flux);
   }

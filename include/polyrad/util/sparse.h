@@ -90,9 +90,11 @@ struct Csr {
 
   // acc[j] += sum over the entries of row r of value(j) x[width column + j], j < width: the row
   // loop of every product, entries summed in stored order (so every product gives the same bits).
-  void accumulate_row(std::int64_t r, const double* x, std::int64_t width, double* acc) const {
+  // x may be float (a kept block of the series, solve/series_precompute.cpp) or double.
+  template <typename X>
+  void accumulate_row(std::int64_t r, const X* x, std::int64_t width, double* acc) const {
     for (std::int64_t k = start[r]; k < start[r + 1]; ++k) {
-      const double* xr = x + width * static_cast<std::int64_t>(column[k]);
+      const X* xr = x + width * static_cast<std::int64_t>(column[k]);
       for (std::int64_t j = 0; j < width; ++j) acc[j] += sparse_detail::scale(value[k], j) * xr[j];
     }
   }
