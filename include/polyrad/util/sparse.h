@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 namespace polyrad {
@@ -91,8 +92,25 @@ struct Csr {
   // acc[j] += sum over the entries of row r of value(j) x[width column + j], j < width: the row
   // loop of every product, entries summed in stored order (so every product gives the same bits).
   // x may be float (a kept block of the series, solve/series_precompute.cpp) or double.
+  // An RGB value over a width that is a multiple of 3 runs by triples, without the j % 3 of
+  // each term (the same products and sums, so the same bits; the view rows of the room's
+  // hierarchical precompute, 135 columns a pixel, took 16 percent of its time the other way).
   template <typename X>
   void accumulate_row(std::int64_t r, const X* x, std::int64_t width, double* acc) const {
+    if constexpr (std::is_same_v<V, std::array<float, 3>>) {
+      if (width % 3 == 0) {
+        for (std::int64_t k = start[r]; k < start[r + 1]; ++k) {
+          const X* xr = x + width * static_cast<std::int64_t>(column[k]);
+          const double v0 = value[k][0], v1 = value[k][1], v2 = value[k][2];
+          for (std::int64_t j = 0; j < width; j += 3) {
+            acc[j] += v0 * xr[j];
+            acc[j + 1] += v1 * xr[j + 1];
+            acc[j + 2] += v2 * xr[j + 2];
+          }
+        }
+        return;
+      }
+    }
     for (std::int64_t k = start[r]; k < start[r + 1]; ++k) {
       const X* xr = x + width * static_cast<std::int64_t>(column[k]);
       for (std::int64_t j = 0; j < width; ++j) acc[j] += sparse_detail::scale(value[k], j) * xr[j];
