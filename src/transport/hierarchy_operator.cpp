@@ -11,6 +11,9 @@ namespace polyrad {
 
 namespace {
 
+// The loops over a node's width values carry `omp simd`: GCC does not vectorise them alone (it
+// cannot tell the blocks apart), and every value of them is independent of the others.
+
 // Per node, the pulled radiosity as its mean m and first moments q = (1/A') int (y - y_n) B dA
 // (y the root parameters, y_n the node's centroid): 3 blocks of width values. Leaves are
 // constant (q = 0); a parent adds each child's share of m and of m (y_c - y_p) + q. Reverse
@@ -36,6 +39,7 @@ void pull_tree(const std::vector<std::int32_t>& parent, const std::vector<float>
     const double du = centroid[n][0] - centroid[p][0], dv = centroid[n][1] - centroid[p][1];
     const double* x = b + 3 * width * n;
     double* y = b + 3 * width * p;
+#pragma omp simd  // a child's blocks and its parent's never overlap
     for (Eigen::Index c = 0; c < width; ++c) {
       y[c] += w * x[c];
       y[width + c] += w * (du * x[c] + x[width + c]);
@@ -56,6 +60,7 @@ void gather_rows(const Csr<std::array<float, 5>>& links, const double* b, Eigen:
       const auto& v = links.value[k];
       const double f = v[0], gu = v[1], gv = v[2], cu = v[3], cv = v[4];
       const double* x = b + 3 * width * static_cast<Eigen::Index>(links.column[k]);
+#pragma omp simd  // x in b, y in h
       for (Eigen::Index c = 0; c < width; ++c) {
         const double m = x[c];
         y[c] += f * m + cu * x[width + c] + cv * x[2 * width + c];
@@ -77,6 +82,7 @@ void push_tree(const std::vector<std::int32_t>& parent,
     const double du = centroid[n][0] - centroid[p][0], dv = centroid[n][1] - centroid[p][1];
     const double* x = h + 3 * width * p;
     double* y = h + 3 * width * n;
+#pragma omp simd  // a parent's blocks and its child's never overlap
     for (Eigen::Index c = 0; c < width; ++c) {
       y[c] += x[c] + du * x[width + c] + dv * x[2 * width + c];
       y[width + c] += x[width + c];
