@@ -136,20 +136,32 @@ Terms choose_chebyshev_order(const TransportOperator& t, const Field& s, const S
   return terms;
 }
 
-// P_K S for one block of columns by the running sum u_K = sum_{n<=K} T^n S (eq. 10), or the
-// Chebyshev polynomial's x_K: `order` products with op, which is T or its renumbered copy.
+// The blocks a batch's products run on, kept from batch to batch: made afresh for each, their
+// pages were touched anew (the room's default precompute took 1.7 million page faults, 0.76
+// with them kept). With view rows the sum's float copy (half a block) is made beside all three.
+struct BatchBlocks {
+  FieldBlock term, next, acc;
+};
+// Bytes per unknown and column of a batch at its peak: three blocks of 3 doubles and a float copy.
+constexpr double kBatchBytes = 3.5 * 3.0 * 8.0;
+
+// P_K S for one block of columns, S in blocks.term, by the running sum
+// u_K = sum_{n<=K} T^n S (eq. 10), or the Chebyshev polynomial's x_K: `order` products with op,
+// which is T or its renumbered copy. The result is blocks.acc.
 template <typename Op>
-FieldBlock block_polynomial(const Op& op, FieldBlock term, int order, bool chebyshev, double rho,
-                            Progress& progress) {
+const FieldBlock& block_polynomial(const Op& op, BatchBlocks& blocks, int order, bool chebyshev,
+                                   double rho, Progress& progress) {
+  FieldBlock &term = blocks.term, &next = blocks.next, &acc = blocks.acc;
   if (chebyshev) {
     ChebyshevIteration<FieldBlock, Op> cheb(op, term, rho);
     for (int n = 1; n <= order; ++n) {
       cheb.step();
       progress.advance();
     }
-    return cheb.x();
+    acc = cheb.x();
+    return acc;
   }
-  FieldBlock acc = term, next;
+  acc = term;
   for (int n = 1; n <= order; ++n) {
     op.apply(term, next);
     term.swap(next);
@@ -426,7 +438,7 @@ std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& s
 
 int series_batch(const SeriesOptions& o, double unknowns, double columns) {
   const double most = std::max(1, o.column_batch);
-  const double fit = std::floor(o.batch_bytes / (72.0 * std::max(1.0, unknowns)));
+  const double fit = std::floor(o.batch_bytes / (kBatchBytes * std::max(1.0, unknowns)));
   const double width = std::clamp(fit, 1.0, most);
   const double batches = std::ceil(std::max(1.0, columns) / width);
   return static_cast<int>(std::ceil(std::max(1.0, columns) / batches));
@@ -436,7 +448,7 @@ double rows_memory(const SeriesOptions& o, double r, double u, double c) {
   // Counts in double: an absurd patch size must be refused, not overflow an integer first.
   const double value = o.precision == ValuePrecision::kHalf ? 6.0 : 12.0;
   const double batch = std::min(c, static_cast<double>(series_batch(o, u, c)));
-  const double batch_blocks = u * 3.0 * 8.0 * 3.0 * batch;  // the term, the next, the sum
+  const double batch_blocks = u * kBatchBytes * batch;
   if (o.output == SeriesOutput::kView) {
     // Every batch's P_K S is kept, in floats, until the gather reads it. Beside them, first the
     // batch's blocks while the series runs, then the pixel rows and the rows kept (24 + 16 bytes an
@@ -490,22 +502,26 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   // P_K S of each batch of columns. Solution rows are kept as they come; view rows wait for
   // the gather, which is then read once, block by block, for every batch (view_rows).
   std::vector<KeptSum> sums;
+  BatchBlocks blocks;
   for (std::int64_t c0 = 0; c0 < cols; c0 += batch) {
     const int width = static_cast<int>(std::min<std::int64_t>(batch, cols - c0));
-    FieldBlock term = FieldBlock::Zero(t.size(), 3 * width);
+    blocks.term.setZero(t.size(), 3 * width);  // the same storage while the width is the same
     for (int c = 0; c < width; ++c)
-      for (PatchId p : lit[c0 + c]) term.block(unknown(p), 3 * c, 1, 3).setOnes();
+      for (PatchId p : lit[c0 + c]) blocks.term.block(unknown(p), 3 * c, 1, 3).setOnes();
     progress.advance();
     // In the products' numbering; back in T's before the gather and the rows.
-    FieldBlock acc =
-        permuted ? permuted->to_original(block_polynomial(*permuted, std::move(term), terms.order,
-                                                          chebyshev, rho, progress))
-                 : block_polynomial(t, std::move(term), terms.order, chebyshev, rho, progress);
+    FieldBlock original;
+    if (permuted)
+      original = permuted->to_original(
+          block_polynomial(*permuted, blocks, terms.order, chebyshev, rho, progress));
+    const FieldBlock& acc =
+        permuted ? original : block_polynomial(t, blocks, terms.order, chebyshev, rho, progress);
     if (view)
       sums.push_back(acc.cast<float>());
     else
       pieces.add(acc, c0, width, q.columns, drop_thresholds(acc, width, o.drop, flux), flux);
   }
+  blocks = BatchBlocks{};  // not held beside the gather's rows
   progress.finish();
   if (view) {
     const Gather gather =

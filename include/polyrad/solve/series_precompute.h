@@ -39,8 +39,9 @@ struct SeriesOptions {
   // for any relighting that sets whole objects.
   SeriesBasis basis = SeriesBasis::kPatch;
   // Columns computed together: at most column_batch, and fewer where the batch's three blocks
-  // of unknowns (the term, the next, the sum: 72 bytes an unknown a column) would pass
-  // batch_bytes; the columns are then shared evenly between the batches (series_batch).
+  // of unknowns (the term, the next, the sum) and the sum's float copy (84 bytes an unknown a
+  // column) would pass batch_bytes; the columns are then shared evenly between the batches
+  // (series_batch).
   int column_batch = 64;
   double batch_bytes = 1024.0 * 1024.0 * 1024.0;
   bool progress = true;  // a Progress display (when displays are enabled at all)
@@ -63,7 +64,7 @@ std::vector<SeriesColumn> series_columns(const PatchSet& patches, const Scene& s
 
 // The columns each batch computes together (the last batch may have fewer), for `unknowns`
 // unknowns and `columns` columns in all. The room's hierarchy (570,000 unknowns, 135 columns):
-// 6 batches of 23 instead of 3 of 64, 0.94 GiB of blocks instead of 2.6.
+// 7 batches of 20 instead of 3 of 64, 0.89 GiB of blocks instead of 2.6.
 int series_batch(const SeriesOptions& options, double unknowns, double columns);
 
 // The bytes the precompute's rows hold at their peak (for the memory estimate,
