@@ -69,9 +69,9 @@ int series_batch(const SeriesOptions& options, double unknowns, double columns);
 
 // The bytes the precompute's rows hold at their peak (for the memory estimate,
 // transport/memory_estimate.h): a batch's three blocks of unknowns (the term, the next, the
-// sum); view rows keep every batch's P_K S (unknowns x 3 floats a column) and their pixel rows
-// (3 doubles a column) beside the kept entries (16 bytes): 40 bytes per pixel and column, as
-// measured on cornell-box at 512^2 and 1024^2.
+// sum) and the sum's float copy; view rows keep every batch's P_K S (unknowns x 3 floats a column)
+// and their pixel rows (3 doubles a column) beside the kept entries (16 bytes): 40 bytes per pixel
+// and column, as measured on cornell-box at 512^2 and 1024^2.
 double rows_memory(const SeriesOptions& options, double rows, double unknowns, double columns);
 // The same before meshing, with the deferred gather of view rows: rows are the camera's pixels
 // (view) or the patches (solution), unknowns and columns are counted from `scene` (with the
