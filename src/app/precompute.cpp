@@ -64,7 +64,7 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   // estimate.
   SystemOptions system = o.system;
   system.hierarchy.link_tolerance =
-      link_tolerance_for(o.series.gather.kind, o.system.hierarchy.link_tolerance);
+      link_tolerance_for(o.series.gather, o.system.hierarchy.link_tolerance);
   system.camera_bytes = rows_memory(o.series, apply_overrides(scene, o.overrides));
   auto sys = build_system(std::move(scene), o.overrides, system);
   require_precompute_memory(o.series, *sys, o.system.max_memory_bytes);

@@ -57,9 +57,13 @@ void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptio
                                                   : solution.message);
   if (solution.status == SolveStatus::kNotConverged) throw NumericalError(solution.message);
   // A final gather's rows are built block by block where they are applied, never held whole.
-  const Gather gather = o.gather.kind == GatherKind::kFinal
-                            ? defer_gather(*r.world, r.world->camera(), t.layout(), o.gather)
-                            : build_gather(*r.world, t.layout(), o.gather);
+  Stopwatch direct_watch;
+  const auto direct = mesh_direct_for(o.gather, t, r.world->patches());
+  const double direct_seconds = direct_watch.seconds();
+  const Gather gather =
+      o.gather.kind == GatherKind::kFinal
+          ? defer_gather(*r.world, r.world->camera(), t.layout(), o.gather, direct)
+          : build_gather(*r.world, t.layout(), o.gather);
   Stopwatch watch;
   GatherWork work;
   r.image = gather_image(gather, solution.u, *r.world, &work);
@@ -69,6 +73,7 @@ void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptio
   rep.system = r.system->summary();
   rep.seconds.insert(rep.seconds.end(), r.system->times.begin(), r.system->times.end());
   rep.seconds.push_back({"solve", solution.seconds});
+  if (direct) rep.seconds.push_back({"mesh_direct", direct_seconds});
   rep.seconds.push_back({"gather_build", gather.seconds + work.seconds});
   rep.seconds.push_back({"gather_apply", apply_seconds});
   rep.gather = summarize(gather, work);
@@ -129,8 +134,7 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
   r.report.method = enum_name(o.method);
   if (o.method == RenderMethod::kSeries) check_series_options(o.series, o.system);
   SystemOptions system = o.system;
-  system.hierarchy.link_tolerance =
-      link_tolerance_for(o.gather.kind, o.system.hierarchy.link_tolerance);
+  system.hierarchy.link_tolerance = link_tolerance_for(o.gather, o.system.hierarchy.link_tolerance);
   r.world = load_world(scene_path, o, system, r.report);
   switch (o.method) {
     case RenderMethod::kIterative:

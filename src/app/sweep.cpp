@@ -173,7 +173,8 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
   const double system_seconds = watch.seconds();
   const TransportOperator& t = sys->transport;
   const World& world = *sys->world;
-  const Gather gather = build_gather(world, t.layout(), f.gather);
+  const auto direct = mesh_direct_for(f.gather, t, world.patches());
+  const Gather gather = build_gather(world, t.layout(), f.gather, direct.get());
   const Field e = t.emission();
   const double norm_e = t.flux_norm(e);
   const double a = t.max_albedo();
@@ -345,7 +346,7 @@ void apply_quick_preset(SweepOptions& o, const SweepChoices& chosen) {
   if (!chosen.patch_sizes) o.patch_sizes = {100, 50, 35};
   if (!chosen.drops) o.drops = {0.0, 1e-3};
   // One hierarchical mesh on the coarsest patches: the point a render with this gather makes.
-  if (!chosen.link_tolerances) o.link_tolerances = {link_tolerance_for(o.gather.kind)};
+  if (!chosen.link_tolerances) o.link_tolerances = {link_tolerance_for(o.gather)};
   // 512: its own noise (about 3 percent relative L1 on the mirror cube) stays below the
   // discretisation error that the converged solutions show against it.
   if (!chosen.reference_spp) o.reference_spp = 512;

@@ -71,7 +71,8 @@ void SystemFlags::add(CLI::App& app) {
                   "Uniform patches linked pair by pair, or element trees on them linked at the "
                   "level the light needs (lobes on links between the trees' roots)");
   const std::string tolerances =
-      number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather, " +
+      number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather (" +
+      number_text(link_tolerance_for(GatherKind::kPatch)) + " with --indirect mesh), " +
       number_text(link_tolerance_for(GatherKind::kPatch)) + " behind the patch gather, " +
       number_text(kDefaultLinkTolerance) + " where no gather reads the solution";
   app.add_option("--link-tolerance", hierarchy.link_tolerance,
@@ -120,6 +121,11 @@ void GatherFlags::add(CLI::App& app) {
   add_enum_option(app, "--gather", kind,
                   "How pixels read the solution: final (direct light and first bounce per pixel, "
                   "the mesh one bounce away) or patch (each pixel reads the patches it sees)");
+  add_enum_option(app, "--indirect", indirect,
+                  "Final gather: where the light beyond the direct light comes from: rays (cosine "
+                  "samples and reflector points reading the mesh one bounce away; default) or mesh "
+                  "(the unknown under each pixel's own point, its direct light taken out: about a "
+                  "third of the rays, and the mesh's own error in the indirect light)");
   app.add_option("--diffuse", diffuse,
                  "How B is read where the image meets a patch (patch gather, default smooth) or "
                  "where a gather sample lands (final gather, default flat: each patch's own mean, "
@@ -137,8 +143,10 @@ void GatherFlags::add(CLI::App& app) {
                      both(patch.light_samples, final.light_samples))
       ->check(CLI::Range(0, 4096));
   app.add_option("--gather-samples", gather_samples,
-                 "Final gather: cosine samples of a diffuse surface per sub-pixel ray" +
-                     final_only(final.gather_samples))
+                 "Final gather: cosine samples of a diffuse surface per sub-pixel ray (default " +
+                     number_text(final.gather_samples) + "; " +
+                     number_text(GatherOptions::final_gather(IndirectMode::kMesh).gather_samples) +
+                     " with --indirect mesh, where they only find the lights)")
       ->check(CLI::Range(1, 4096));
   app.add_option("--near-samples", near_samples,
                  "Final gather: light points and cosine samples of the second gather where a "
@@ -159,7 +167,10 @@ void GatherFlags::add(CLI::App& app) {
 }
 
 GatherOptions GatherFlags::options() const {
-  GatherOptions o = kind == GatherKind::kPatch ? GatherOptions{} : GatherOptions::final_gather();
+  if (kind == GatherKind::kPatch && indirect == IndirectMode::kMesh)
+    throw InputError("--indirect mesh is a final gather's: the patch gather reads the mesh alone");
+  GatherOptions o =
+      kind == GatherKind::kPatch ? GatherOptions{} : GatherOptions::final_gather(indirect);
   if (!diffuse.empty()) o.diffuse = enum_from_name<DiffuseMode>(diffuse);
   if (pixel_grid > 0) o.pixel_grid = pixel_grid;
   if (lobe_samples > 0) o.lobe_samples = lobe_samples;

@@ -67,6 +67,7 @@ struct SystemFlags {
 // GatherOptions::final_gather() for the final gather.
 struct GatherFlags {
   GatherKind kind = GatherKind::kFinal;
+  IndirectMode indirect = IndirectMode::kRays;
   std::string diffuse;
   int pixel_grid = -1, lobe_samples = -1, light_samples = -1, gather_samples = -1,
       near_samples = -1, reflector_samples = -1;

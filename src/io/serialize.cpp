@@ -67,6 +67,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("near_samples", o.near_samples)
       .value("near_distance", o.near_distance)
       .value("reflector_samples", o.reflector_samples)
+      .value("indirect", enum_name(o.indirect))
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
 }
@@ -94,6 +95,8 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the final gather drew points on the reflectors: it drew none.
     if (r.has("reflector_samples"))
       o.reflector_samples = static_cast<int>(r.integer("reflector_samples", 0, 65536));
+    // Written before the indirect light could come from the mesh: from rays.
+    if (r.has("indirect")) o.indirect = read_enum<IndirectMode>(r, "indirect");
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

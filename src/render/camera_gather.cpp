@@ -272,14 +272,25 @@ using namespace gather_detail;
 class GatherRows {
  public:
   GatherRows(const World& world, const Camera& camera, const UnknownLayout& layout,
-             const GatherOptions& options)
-      : camera_(camera),
+             const GatherOptions& options, std::shared_ptr<const MeshDirect> kept = nullptr,
+             const MeshDirect* direct = nullptr)
+      : kept_(std::move(kept)),
+        camera_(camera),
         options_(options),
         corners_(world.patches(), corner_weights(world, layout)),
         reflectors_(world.patches(), reflector_weights(world, layout, options)),
         diameters_(diameters(world.patches())),
-        context_{camera_,  world.patches(), world.materials(), world.caster(), layout,
-                 options_, corners_,        world.lights(),    reflectors_,    diameters_},
+        context_{camera_,
+                 world.patches(),
+                 world.materials(),
+                 world.caster(),
+                 layout,
+                 options_,
+                 corners_,
+                 world.lights(),
+                 reflectors_,
+                 diameters_,
+                 kept_ ? kept_.get() : direct},
         unknowns_(layout.size()),
         patches_(static_cast<std::int64_t>(world.patches().size())) {
     if (options.pixel_grid < 1 || options.pixel_grid > 16)
@@ -298,6 +309,18 @@ class GatherRows {
       throw InputError("final gather: near_distance must not be negative");
     if (options.reflector_samples < 0)
       throw InputError("final gather: reflector_samples must not be negative");
+    if (options.kind == GatherKind::kFinal && options.indirect == IndirectMode::kMesh) {
+      if (options.light_samples < 1)
+        throw InputError(
+            "final gather: --indirect mesh takes the direct light from light points; "
+            "light_samples must be at least 1");
+      const MeshDirect* d = context_.direct;
+      if (!d || d->value.size() != static_cast<std::size_t>(layout.num_patches) *
+                                       static_cast<std::size_t>(d->objects))
+        throw InputError(
+            "final gather: --indirect mesh needs the mesh's direct light of this "
+            "operator (mesh_direct), which this gather was not given");
+    }
   }
 
   int width() const { return camera_.width; }
@@ -432,6 +455,7 @@ class GatherRows {
     to.rows += from.rows;
   }
 
+  const std::shared_ptr<const MeshDirect> kept_;  // a deferred gather's MeshDirect
   const Camera camera_;
   const GatherOptions options_;
   const CornerAverages corners_;
@@ -442,19 +466,34 @@ class GatherRows {
   const std::int64_t patches_;
 };
 
+std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
+                                                  const TransportOperator& t,
+                                                  const PatchSet& patches) {
+  if (o.kind != GatherKind::kFinal || o.indirect != IndirectMode::kMesh) return nullptr;
+  return std::make_shared<const MeshDirect>(mesh_direct(t, patches));
+}
+
 double link_tolerance_for(GatherKind kind, double chosen) {
   if (chosen > 0.0) return chosen;
   return kind == GatherKind::kFinal ? 0.07 : kDefaultLinkTolerance;
 }
 
-Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options) {
-  return build_gather(world, world.camera(), layout, options);
+double link_tolerance_for(const GatherOptions& gather, double chosen) {
+  if (gather.kind == GatherKind::kFinal && gather.indirect == IndirectMode::kMesh &&
+      !(chosen > 0.0))
+    return link_tolerance_for(GatherKind::kPatch);
+  return link_tolerance_for(gather.kind, chosen);
+}
+
+Gather build_gather(const World& world, const UnknownLayout& layout, const GatherOptions& options,
+                    const MeshDirect* direct) {
+  return build_gather(world, world.camera(), layout, options, direct);
 }
 
 Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
-                    const GatherOptions& options) {
+                    const GatherOptions& options, const MeshDirect* direct) {
   const Stopwatch watch;
-  GatherRows rows(world, camera, layout, options);
+  GatherRows rows(world, camera, layout, options, nullptr, direct);
   Gather g;
   g.width = camera.width;
   g.height = camera.height;
@@ -471,12 +510,13 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
 }
 
 Gather defer_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
-                    const GatherOptions& options) {
+                    const GatherOptions& options, std::shared_ptr<const MeshDirect> direct) {
   Gather g;
   g.width = camera.width;
   g.height = camera.height;
   g.options = options;
-  g.deferred = std::make_shared<const GatherRows>(world, camera, layout, options);
+  g.deferred =
+      std::make_shared<const GatherRows>(world, camera, layout, options, std::move(direct));
   return g;
 }
 

@@ -17,6 +17,9 @@
 // part is then estimated without bias on its own, and the weights of a direction sum to one.
 // With reflector_samples, the diffuse part's S_{j->i} has a pair of its own: points drawn by
 // area on the patches that send specular links against the cosine samples.
+// With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
+// the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
+// carry their weighted share of Le, and read nothing else.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -45,7 +48,8 @@ class FinalGatherer {
         reflector_count_(c.reflectors.empty() ? 0 : o_.reflector_samples),
         reflector_side_(static_cast<int>(std::sqrt(static_cast<double>(reflector_count_)))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
-        near_count_(near_side_ * near_side_) {}
+        near_count_(near_side_ * near_side_),
+        mesh_indirect_(o_.indirect == IndirectMode::kMesh) {}
 
   // The pixel: Le of what its emission_grid^2 finer rays see along their mirror chains, and the
   // light reflected there from its pixel_grid^2 shading rays. Each shading ray stands for the
@@ -112,6 +116,7 @@ class FinalGatherer {
     Vec3 x, wo;  // the point, and the direction it is seen from (local frame)
     Rgb weight;  // the mirrors' reflectances along the chain (gather() scales the whole ray)
     SubPixel sub;
+    double u, v;  // the point on patch i
   };
   // At most four: stratum() keys its hash by pixel * 4 + strategy.
   enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2, kReflectorPoints = 3 };
@@ -269,7 +274,8 @@ class FinalGatherer {
       *key = add_to_key(*key, p.object);
       const Material& m = c_.materials[p.material];
       const Frame frame = Frame::from_normal(p.normal);
-      const Shading sh{hit.patch, m, frame, hit.position, frame.to_local(-dir), weight, sub};
+      const Shading sh{hit.patch, m,   frame, hit.position, frame.to_local(-dir),
+                       weight,    sub, hit.u, hit.v};
       if (sh.wo.z() > 0.0) rays += shade(sh, rng, terms);
       if (depth >= o_.mirror_depth || !m.has_lobe() || !m.is_delta()) {
         if (depth >= o_.mirror_depth && m.has_lobe() && m.is_delta())
@@ -308,12 +314,37 @@ class FinalGatherer {
     const int ns = lobe ? lobe_side_ * lobe_side_ : 0;
     long long rays = 0;
     if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
+    if (diffuse && mesh_indirect_) mesh_reflected(sh, terms);
     if (diffuse) rays += cosine_samples(sh, nd, rng, terms);
     if (lobe) rays += lobe_samples(sh, ns, rng, terms);
     // After this hit's other samples, so that they draw the same numbers with or without these
     // (a mirror chain's later hits do not: the chain shares one stream).
-    if (diffuse && reflector_count_ > 0) rays += reflector_points(sh, nd, rng, terms);
+    if (diffuse && !mesh_indirect_ && reflector_count_ > 0)
+      rays += reflector_points(sh, nd, rng, terms);
     return rays;
+  }
+
+  // IndirectMode::kMesh: the diffuse part's light beyond the direct light, from the unknown(s)
+  // l under x: B_l - E_l - sum_o D(l, o) e_o (render/mesh_direct.h). B_l = E_l + d (mean
+  // arriving radiance), so this is d times what arrives at l from everything but the lights
+  // themselves, with no d to apply again: each channel's weight is the chain's where d > 0.
+  void mesh_reflected(const Shading& sh, PixelTerms& terms) const {
+    const Rgb& d = sh.m.diffuse;
+    Rgb w = sh.weight;
+    for (int c = 0; c < 3; ++c)
+      if (!(d[c] > 0.0)) w[c] = 0.0;
+    const std::size_t first = terms.unknowns.size();
+    add_reflected(locate(c_, sh.i, sh.u, sh.v), scaled(w, 1.0), terms);
+    const MeshDirect& md = *c_.direct;
+    for (std::size_t k = first; k < terms.unknowns.size(); ++k) {
+      const Term t = terms.unknowns[k];
+      for (int o = 0; o < md.objects; ++o) {
+        const auto& v = md.at(t.column, o);
+        if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f) continue;
+        terms.emission.push_back({md.column[static_cast<std::size_t>(o)],
+                                  {-t.w[0] * v[0], -t.w[1] * v[1], -t.w[2] * v[2]}});
+      }
+    }
   }
 
   // The specular light the reflectors send x, S_{j->i}, from points on them (drawn by area),
@@ -383,6 +414,10 @@ class FinalGatherer {
       ++rays;
       const Hit h = c_.caster.intersect_from(sh.x, sh.i, dir);
       if (!h.valid() || !h.front) continue;
+      if (mesh_indirect_) {  // the mesh gave the rest: only a light's weighted share of Le
+        add_emission(sh, h, dir, w, wi.z() * kInvPi, count, terms);
+        continue;
+      }
       rays += add_arriving(sh, h, dir, w, wi.z() * kInvPi, count, rng, terms, true);
     }
     return rays;
@@ -414,12 +449,7 @@ class FinalGatherer {
   long long add_arriving(const Shading& sh, const Hit& h, const Vec3& dir, const Rgb& w, double pdf,
                          int count, Rng& rng, PixelTerms& terms, bool cosine = false) const {
     const PatchId j = h.patch;
-    if (c_.patches[j].emitter) {
-      double mis = 1.0;
-      if (light_count_ > 0)
-        mis = power_heuristic(count * pdf, light_count_ * solid_angle_pdf(c_.lights, h, sh.x, dir));
-      if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
-    }
+    add_emission(sh, h, dir, w, pdf, count, terms);
     // The specular link toward i, and the diffuse part's reflected light: from the mesh,
     // B~ - E~, or, where y is near x, by a second gather at y (with a blend between the two).
     double link_mis = 1.0;
@@ -433,6 +463,17 @@ class FinalGatherer {
     if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms);
     if (near > 0.0) rays += near_gather(h, -dir, w * near, rng, terms);
     return rays;
+  }
+
+  // Where a BRDF sample met a light: w times its Le, weighted against the light points.
+  void add_emission(const Shading& sh, const Hit& h, const Vec3& dir, const Rgb& w, double pdf,
+                    int count, PixelTerms& terms) const {
+    const PatchId j = h.patch;
+    if (!c_.patches[j].emitter) return;
+    double mis = 1.0;
+    if (light_count_ > 0)
+      mis = power_heuristic(count * pdf, light_count_ * solid_angle_pdf(c_.lights, h, sh.x, dir));
+    if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
   }
 
   // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects.
@@ -523,6 +564,7 @@ class FinalGatherer {
   const GatherOptions& o_;
   const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
       near_side_, near_count_;
+  const bool mesh_indirect_;
 };
 
 }  // namespace

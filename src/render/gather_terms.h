@@ -81,6 +81,7 @@ struct GatherContext {
   const LightSampler& lights;
   const LightSampler& reflectors;  // the final gather's reflector points (by area)
   const std::vector<double>& diameters;  // per patch, Patch::diameter (asked at every hit)
+  const MeshDirect* direct;              // the final gather's IndirectMode::kMesh; else may be null
 };
 
 // Where a hit reads B: (u, v) on patch p and, with a hierarchy, the leaf under it, located once

@@ -223,9 +223,12 @@ std::vector<std::vector<PatchId>> lit_unknowns(const std::vector<SeriesColumn>& 
   return lit;
 }
 
-// The flux-weighted energy of row r of column c in a block of rows (3 values a column).
+// The flux-weighted energy of row r of column c in a block of rows (3 values a column), by
+// magnitude: a view row of a gather that reads the indirect light from the mesh may be negative
+// in one column (an emitting object's -D e is put on its first patch's: render/mesh_direct.h).
 double row_energy(const FieldBlock& out, std::int64_t r, int c, double weight) {
-  return weight * (out(r, 3 * c) + out(r, 3 * c + 1) + out(r, 3 * c + 2));
+  return weight *
+         (std::abs(out(r, 3 * c)) + std::abs(out(r, 3 * c + 1)) + std::abs(out(r, 3 * c + 2)));
 }
 
 // Drop the smallest entries of each column while their share of the column's energy (the
@@ -278,7 +281,7 @@ class RowPieces {
         const double mass =
             w * (v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
         total_ += mass;
-        if (std::max({v[0], v[1], v[2]}) <= 0.0) continue;
+        if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) continue;
         if (row_energy(out, r, c, w) < threshold[c]) {
           dropped_ += mass;
           continue;
@@ -524,8 +527,10 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   blocks = BatchBlocks{};  // not held beside the gather's rows
   progress.finish();
   if (view) {
-    const Gather gather =
-        given_gather ? *given_gather : defer_gather(world, world.camera(), t.layout(), o.gather);
+    const Gather gather = given_gather
+                              ? *given_gather
+                              : defer_gather(world, world.camera(), t.layout(), o.gather,
+                                             mesh_direct_for(o.gather, t, world.patches()));
     q.width = gather.width;  // a given gather may be of another camera than the world's
     q.height = gather.height;
     q.gather = gather.options;  // what made the rows

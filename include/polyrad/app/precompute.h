@@ -31,7 +31,7 @@ inline SeriesOptions precompute_series_defaults() {
 struct PrecomputeOptions {
   SceneOptions scene;
   SceneOverrides overrides;
-  SystemOptions system;  // a link tolerance left 0: link_tolerance_for(series.gather.kind)
+  SystemOptions system;  // a link tolerance left 0: link_tolerance_for(series.gather)
   // Its gather: folded into view rows, or recorded for solution rows.
   SeriesOptions series = precompute_series_defaults();
 };

@@ -58,7 +58,7 @@ struct SweepChoices {
 };
 
 // The demo's preset (`sweep --quick`), about two minutes on 2 cores: patch sizes 100, 50, 35, one
-// hierarchical mesh at the link tolerance o.gather's kind takes (link_tolerance_for), drops 0 and
+// hierarchical mesh at the link tolerance o.gather takes (link_tolerance_for), drops 0 and
 // 1e-3, the reference at 512 spp; what `chosen` names is left as it is.
 void apply_quick_preset(SweepOptions& o, const SweepChoices& chosen);
 

@@ -25,6 +25,10 @@
 // specular links read the diffuse part's S_{j->i} too, weighted by the power heuristic against
 // the cosine samples.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
+// With IndirectMode::kMesh the first bounce is not gathered: at a hit on unknown l it is read
+// as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it directly
+// (render/mesh_direct.h), and the cosine samples only weigh the lights they meet against the
+// light points.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
 // operator: Q = E S + G P_K S (eq. 12).
@@ -47,6 +51,7 @@
 #include <memory>
 
 #include "polyrad/render/image.h"
+#include "polyrad/render/mesh_direct.h"
 #include "polyrad/scene/camera.h"
 #include "polyrad/transport/transport.h"
 #include "polyrad/util/enum_names.h"
@@ -64,6 +69,17 @@ struct EnumNames<DiffuseMode> {
 };
 
 enum class GatherKind { kPatch, kFinal };
+
+// Where the final gather takes the light a point reflects beyond the direct light: from rays
+// (cosine samples and reflector points reading the mesh one bounce away), or from the mesh at
+// the point itself (B - E - D e of the unknown under it, render/mesh_direct.h).
+enum class IndirectMode { kRays, kMesh };
+template <>
+struct EnumNames<IndirectMode> {
+  static constexpr const char* kind = "indirect light";
+  static constexpr std::array<std::pair<IndirectMode, const char*>, 2> table{
+      {{IndirectMode::kRays, "rays"}, {IndirectMode::kMesh, "mesh"}}};
+};
 template <>
 struct EnumNames<GatherKind> {
   static constexpr const char* kind = "gather";
@@ -99,20 +115,29 @@ struct GatherOptions {
   // weighted against the cosine samples (0: the cosine samples alone). A mirror's links are
   // bright and change from patch to patch, which cosine samples alone read with much noise.
   int reflector_samples = 0;
+  // Final gather: kMesh reads the diffuse part's indirect light from the unknown under each hit;
+  // the cosine samples then only find the lights (the light points' partner) and no reflector
+  // points are drawn: the pixel's direct light is its own, the rest is the mesh's, with the
+  // mesh's error (a fine mesh's is below the rays' noise, a coarse one's above it). It needs the
+  // mesh's direct light (MeshDirect) where the gather is built.
+  IndirectMode indirect = IndirectMode::kRays;
   std::uint64_t seed = 11;
 
   // The final gather with the counts the sample study chose (README, "The final gather"):
   // flat reads (each patch's mean keeps the flux a sample reads, where the smooth interpolation
   // moves light off bright patches), 64 cosine samples and 64 light points per sub-pixel ray,
   // and 64 points on the reflectors (a sixth less error on the mirror cube for an eighth more
-  // gather time; nothing drawn where no patch sends specular links).
-  static GatherOptions final_gather() {
+  // gather time; nothing drawn where no patch sends specular links). With the indirect light
+  // from the mesh the cosine samples only find the lights, against the light points: 16 (the
+  // mirror cube's error the same as with 64, in 3.5 s less).
+  static GatherOptions final_gather(IndirectMode indirect = IndirectMode::kRays) {
     GatherOptions o;
     o.kind = GatherKind::kFinal;
     o.diffuse = DiffuseMode::kFlat;
-    o.gather_samples = 64;
+    o.gather_samples = indirect == IndirectMode::kMesh ? 16 : 64;
     o.light_samples = 64;
     o.reflector_samples = 64;
+    o.indirect = indirect;
     return o;
   }
 };
@@ -122,9 +147,12 @@ struct GatherOptions {
 // gather reads the leaves at every pixel: 0.05, since its error doubles at 0.1. The final gather
 // reads the mesh only one bounce away from what a pixel sees: 0.07, which against 0.05 kept the
 // relative RMSE (cornell-box 0.0494 against 0.0485, cornell-glossy 0.0646 against 0.0648, the
-// mirror cube 0.0788 both) for 15 percent less memory (README, "Hierarchical links").
+// mirror cube 0.0788 both) for 15 percent less memory (README, "Hierarchical links"). A final
+// gather that reads the indirect light from the mesh (IndirectMode::kMesh) reads the leaves at
+// every pixel, as the patch gather does: 0.05 (the mirror cube 0.0816 against 0.0836 at 0.07).
 // With chosen > 0 (a tolerance the caller chose), chosen itself.
 double link_tolerance_for(GatherKind kind, double chosen = 0.0);
+double link_tolerance_for(const GatherOptions& gather, double chosen = 0.0);
 
 using Rgbf = std::array<float, 3>;
 
@@ -143,17 +171,26 @@ struct Gather {
 };
 
 // The gather of the world's camera, or of another camera (a solution operator relit from
-// elsewhere), built whole.
+// elsewhere), built whole. `direct` (mesh_direct_for the same operator) is required by
+// IndirectMode::kMesh (else InputError) and read only while the gather is built; a deferred
+// gather keeps its own.
 Gather build_gather(const World& world, const UnknownLayout& layout,
-                    const GatherOptions& options = {});
+                    const GatherOptions& options = {}, const MeshDirect* direct = nullptr);
 Gather build_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
-                    const GatherOptions& options = {});
+                    const GatherOptions& options = {}, const MeshDirect* direct = nullptr);
+
+// What a gather with options o needs of operator t: its MeshDirect for a final gather with
+// IndirectMode::kMesh (one application of T per emitting object), else null.
+std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
+                                                  const TransportOperator& t,
+                                                  const PatchSet& patches);
 
 // The same gather with its rows built on demand, block by block (for_each_gather_block), so
 // that a final gather, with many entries per pixel, never needs to be held whole. Keeps
 // references to world and layout, which must outlive it.
 Gather defer_gather(const World& world, const Camera& camera, const UnknownLayout& layout,
-                    const GatherOptions& options = {});
+                    const GatherOptions& options = {},
+                    std::shared_ptr<const MeshDirect> direct = nullptr);
 
 // Pixels in a block of a deferred gather's rows, where the library reads one (apply_gather, the
 // view precompute): about 3 MB for a final gather of cornell-box. Blocks of 4096 pixels held

@@ -1,0 +1,41 @@
+// The direct light as the mesh holds it (render/mesh_direct.h).
+#include "polyrad/render/mesh_direct.h"
+
+#include <map>
+
+#include "polyrad/transport/hierarchy.h"
+
+namespace polyrad {
+
+MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches) {
+  MeshDirect d;
+  std::map<ObjectId, int> index;  // emitting object -> its place, in order of first patch
+  for (std::size_t p = 0; p < patches.size(); ++p)
+    if (patches[p].emitter && index.emplace(patches[p].object, d.objects).second) {
+      d.column.push_back(static_cast<std::int32_t>(p));
+      ++d.objects;
+    }
+  const std::int64_t b = t.num_patches();
+  d.value.assign(static_cast<std::size_t>(b * d.objects), {0.0f, 0.0f, 0.0f});
+  // The world patch of each B unknown: itself, or the root its leaf lies under.
+  const ElementHierarchy* h = t.layout().hierarchy.get();
+  std::vector<ObjectId> object_of(static_cast<std::size_t>(b));
+  for (std::int64_t l = 0; l < b; ++l) {
+    const auto i = static_cast<int>(l);
+    object_of[l] = patches[h ? h->elements()[h->element_of_leaf(i)].root : i].object;
+  }
+  Field out;
+  for (const auto& [object, o] : index) {
+    std::vector<Rgb> unit(static_cast<std::size_t>(b), Rgb::Zero());
+    for (std::int64_t l = 0; l < b; ++l)
+      if (object_of[l] == object) unit[l] = Rgb::Ones();
+    t.apply(t.emission(unit), out);
+    for (std::int64_t l = 0; l < b; ++l)
+      d.value[static_cast<std::size_t>(l * d.objects + o)] = {static_cast<float>(out(l, 0)),
+                                                              static_cast<float>(out(l, 1)),
+                                                              static_cast<float>(out(l, 2))};
+  }
+  return d;
+}
+
+}  // namespace polyrad
