@@ -433,6 +433,9 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
       {"render", " --gather patch", link_tolerance_for(GatherKind::kPatch)},
       {"render", " --gather patch --link-tolerance 0.2", 0.2},
       {"precompute", "", link_tolerance_for(GatherKind::kFinal)},
+      // The indirect light from the mesh reads the leaves at every pixel, as the patch gather.
+      {"render", " --indirect mesh", link_tolerance_for(GatherKind::kPatch)},
+      {"precompute", " --indirect mesh", link_tolerance_for(GatherKind::kPatch)},
   };
   EXPECT_GT(link_tolerance_for(GatherKind::kFinal), link_tolerance_for(GatherKind::kPatch));
   for (const Case& c : cases) {
@@ -446,6 +449,40 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
     ASSERT_NE(h->find("link_tolerance"), nullptr) << c.command << c.flags;
     EXPECT_EQ(h->find("link_tolerance")->number, c.tau) << c.command << c.flags;
   }
+}
+
+// --indirect mesh: the report and the operator file say so, the render reports the mesh's
+// direct light as a stage; what it cannot do is refused with exit 2 and no output.
+TEST(Cli, IndirectFromTheMeshIsReportedAndItsLimitsAreExitTwo) {
+  auto dir = test::temp_dir();
+  const std::string scene = test::scene_path("cornell-box"), img = (dir / "m.pfm").string(),
+                    rep = (dir / "m.json").string(), prt = (dir / "m.prt").string();
+  CommandRun ok = run("render " + scene + " -o " + img + " --report " + rep +
+                      " --patch-size 200 --indirect mesh" + kQuickGather);
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  JsonValue report = test::read_json(rep);
+  EXPECT_EQ(report.find("gather")->find("options")->find("indirect")->string, "mesh");
+  EXPECT_NE(report.find("seconds")->find("mesh_direct"), nullptr);
+  ok = run("precompute " + scene + " -o " + prt + " --report " + rep +
+           " --patch-size 200 --order 3 --indirect mesh" + kQuickGather);
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  CommandRun relit = run("relight " + prt + " -o " + img + " --report " + rep);
+  ASSERT_EQ(relit.code, 0) << relit.err;
+  report = test::read_json(rep);
+  EXPECT_EQ(report.find("series")->find("gather")->find("indirect")->string, "mesh");
+  std::filesystem::remove(img);
+  for (const std::string& args :
+       {"render " + scene + " -o " + img + " --indirect sideways",
+        "render " + scene + " -o " + img + " --gather patch --indirect mesh",
+        "render " + scene + " -o " + img + " --indirect mesh --light-samples 0",
+        "precompute " + scene + " -o " + (dir / "x.prt").string() +
+            " --indirect mesh --output solution"}) {
+    CommandRun bad = run(args);
+    EXPECT_EQ(bad.code, 2) << args << "\n" << bad.err;
+    EXPECT_EQ(lines(bad.err), 1u) << bad.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(img));
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.prt"));
 }
 
 TEST(Cli, RenderBySeriesMatchesIterative) {
