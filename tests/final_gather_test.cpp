@@ -403,10 +403,25 @@ TEST(FinalGather, GatherIsLinearInTheUnknownsAndTheEmission) {
   EXPECT_THROW(apply_gather(g, u1), InputError);  // the final gather needs the emission
 }
 
-// Q = E S + G P_K S, folded in blocks from a deferred gather, against the same gather applied to
-// the solution-mode product of the same order: for the scene's lights, and for lights relit to
-// other colours (which only the emission part E S can get right, the solution's B holding the
-// relit emission too).
+// The view product against `stored` applied to the solution-mode product of the same order: for
+// the scene's lights, and for lights relit to other colours (which only the emission part E S
+// can get right, the solution's B holding the relit emission too).
+void expect_relight_is_render(const RadiositySystem& sys, const SeriesOperator& view,
+                              const SeriesOperator& solution, const Gather& stored) {
+  for (const std::map<std::string, Rgb>& lights :
+       {std::map<std::string, Rgb>{}, std::map<std::string, Rgb>{{"light", Rgb(2, 8, 30)}}}) {
+    std::vector<float> e = view.column_emission(lights);
+    std::vector<float> relit = product(view, e);
+    Image rendered = apply_gather(stored, series_field(solution, product(solution, e)),
+                                  patch_emission(solution, e, sys.patches(), sys.scene()));
+    float peak = 0.0f;
+    for (float v : relit) peak = std::max(peak, v);
+    EXPECT_GT(peak, 0.0f);
+    EXPECT_LT(worst_difference(relit, rendered.rgb), 1e-5f * peak);
+  }
+}
+
+// Q = E S + G P_K S, folded in blocks from a deferred gather, against the same gather built whole.
 TEST(FinalGather, RelightIsRenderWithTheSameGather) {
   auto sys = small_view("cornell-mirror-cube", 32);
   const GatherOptions o = final_options();
@@ -416,16 +431,7 @@ TEST(FinalGather, RelightIsRenderWithTheSameGather) {
   SeriesOperator solution = precompute(*sys, nullptr, SeriesOutput::kSolution, 9);
   EXPECT_EQ(view.gather.kind, GatherKind::kFinal);
   EXPECT_GT(view.report.gather_seconds, 0.0);
-  for (const std::map<std::string, Rgb>& lights :
-       {std::map<std::string, Rgb>{}, std::map<std::string, Rgb>{{"light", Rgb(2, 8, 30)}}}) {
-    std::vector<float> e = view.column_emission(lights);
-    std::vector<float> relit = product(view, e);
-    Image rendered = apply_gather(stored, series_field(solution, product(solution, e)),
-                                  patch_emission(solution, e, sys->patches(), sys->scene()));
-    float peak = 0.0f;
-    for (float v : relit) peak = std::max(peak, v);
-    EXPECT_LT(worst_difference(relit, rendered.rgb), 1e-5f * peak);
-  }
+  expect_relight_is_render(*sys, view, solution, stored);
   // The folded operator is one matrix: twice the light, twice the image.
   std::vector<float> e = view.column_emission(), e2 = e;
   for (float& v : e2) v *= 2.0f;
@@ -472,17 +478,7 @@ TEST(FinalGather, RelightIsRenderWithTheIndirectLightFromTheMesh) {
   SeriesOperator view = precompute_series(sys->transport, *sys->world, so);
   SeriesOperator solution = precompute(*sys, nullptr, SeriesOutput::kSolution, 9);
   EXPECT_EQ(view.gather.indirect, IndirectMode::kMesh);
-  for (const std::map<std::string, Rgb>& lights :
-       {std::map<std::string, Rgb>{}, std::map<std::string, Rgb>{{"light", Rgb(2, 8, 30)}}}) {
-    std::vector<float> e = view.column_emission(lights);
-    std::vector<float> relit = product(view, e);
-    Image rendered = apply_gather(stored, series_field(solution, product(solution, e)),
-                                  patch_emission(solution, e, sys->patches(), sys->scene()));
-    float peak = 0.0f;
-    for (float v : relit) peak = std::max(peak, v);
-    EXPECT_GT(peak, 0.0f);
-    EXPECT_LT(worst_difference(relit, rendered.rgb), 1e-5f * peak);
-  }
+  expect_relight_is_render(*sys, view, solution, stored);
 }
 
 // ---- the file ----------------------------------------------------------------------------------
