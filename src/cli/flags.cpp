@@ -124,8 +124,9 @@ void GatherFlags::add(CLI::App& app) {
   add_enum_option(app, "--indirect", indirect,
                   "Final gather: where the light beyond the direct light comes from: rays (cosine "
                   "samples and reflector points reading the mesh one bounce away; default) or mesh "
-                  "(the unknown under each pixel's own point, its direct light taken out: about a "
-                  "third of the rays, and the mesh's own error in the indirect light)");
+                  "(the diffuse part's, from the unknown under each pixel's own point with its "
+                  "direct light taken out: no rays read the mesh there, and the mesh's own error "
+                  "is in the image)");
   app.add_option("--diffuse", diffuse,
                  "How B is read where the image meets a patch (patch gather, default smooth) or "
                  "where a gather sample lands (final gather, default flat: each patch's own mean, "

@@ -236,7 +236,10 @@ double row_energy(const FieldBlock& out, std::int64_t r, int c, double weight) {
 // that fraction of each light's contribution, whatever the light's colour. (A threshold
 // relative to the column's largest entry would not: in view mode that entry is a pixel seeing
 // the lamp, and most of the indirect light falls below it.) Returns each column's threshold:
-// entries of lower energy are dropped.
+// entries of lower energy are dropped. Energies are magnitudes: where a column has negative
+// entries (the indirect light from the mesh puts an object's -D e on one patch's column) the
+// bound holds for the sum of the magnitudes, not for the column's net light.
+
 std::vector<double> drop_thresholds(const FieldBlock& out, int width, double drop,
                                     const std::vector<double>* flux_weight) {
   std::vector<double> threshold(width, 0.0);
@@ -278,8 +281,9 @@ class RowPieces {
       for (int c = 0; c < width; ++c) {
         const SeriesColumn& col = columns[c0 + c];
         const double v[3] = {out(r, 3 * c), out(r, 3 * c + 1), out(r, 3 * c + 2)};
+        // By magnitude, as the drop judges entries: a negative one dropped adds light.
         const double mass =
-            w * (v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
+            w * std::abs(v[0] * col.emission[0] + v[1] * col.emission[1] + v[2] * col.emission[2]);
         total_ += mass;
         if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) continue;
         if (row_energy(out, r, c, w) < threshold[c]) {
@@ -482,6 +486,10 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
                                  const SeriesOptions& o, const Gather* given_gather) {
   const Stopwatch watch;
   const bool view = o.output == SeriesOutput::kView;
+  if (!view && o.gather.kind == GatherKind::kFinal && o.gather.indirect == IndirectMode::kMesh)
+    throw InputError(
+        "--indirect mesh reads the mesh's direct light (T e), which relight builds its gather "
+        "without; use --output view (or --indirect rays)");
   SeriesOperator q = operator_shell(t, world, o);
   const auto cols = static_cast<std::int64_t>(q.columns.size());
   std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);

@@ -25,10 +25,11 @@
 // specular links read the diffuse part's S_{j->i} too, weighted by the power heuristic against
 // the cosine samples.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
-// With IndirectMode::kMesh the first bounce is not gathered: at a hit on unknown l it is read
-// as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it directly
-// (render/mesh_direct.h), and the cosine samples only weigh the lights they meet against the
-// light points.
+// With IndirectMode::kMesh the diffuse part's first bounce is not gathered: at a hit on unknown
+// l it is read as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it
+// directly (render/mesh_direct.h), and the cosine samples only weigh the lights they meet
+// against the light points. A glossy part's lobe samples, and a chain that reaches
+// mirror_depth, still read the mesh where they land, as with rays.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
 // operator: Q = E S + G P_K S (eq. 12).
@@ -136,7 +137,7 @@ struct GatherOptions {
     o.diffuse = DiffuseMode::kFlat;
     o.gather_samples = indirect == IndirectMode::kMesh ? 16 : 64;
     o.light_samples = 64;
-    o.reflector_samples = 64;
+    o.reflector_samples = indirect == IndirectMode::kMesh ? 0 : 64;  // kMesh draws none
     o.indirect = indirect;
     return o;
   }
