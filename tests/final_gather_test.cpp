@@ -296,12 +296,14 @@ TEST(FinalGather, FurnacesHoldWithTheIndirectLightFromTheMesh) {
                  0, mesh);
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, mesh);
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kSmooth, {}, 0, mesh);
-  // Each pixel reads one leaf, whose own error it keeps (at 0.01 a leaf 0.7 percent bright):
-  // tighter than FurnacesHoldOnTheHierarchicalMesh, as the patch gather would need.
+  // Each pixel reads one leaf, whose own error it keeps (at 0.01 and three levels a leaf 0.7
+  // percent bright): tighter than FurnacesHoldOnTheHierarchicalMesh, as the patch gather would
+  // need, on two levels (three at 0.003 held as well, in four times the time: 312 s under the
+  // sanitizers).
   SystemOptions hierarchical;
   hierarchical.mesh = MeshKind::kHierarchical;
-  hierarchical.hierarchy.link_tolerance = 0.003;
-  hierarchical.hierarchy.min_element_size = 0.3 / 8;
+  hierarchical.hierarchy.link_tolerance = 0.005;
+  hierarchical.hierarchy.min_element_size = 0.3 / 4;
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, hierarchical, 0, mesh);
 }
 
