@@ -1,5 +1,6 @@
 // The light sampler (world/light_sampling.h): which patch a number picks, and the density of
-// the point it draws, against what they must be by definition.
+// the point it draws, against what they must be by definition; the lights' boxes, against
+// the rays that meet a light.
 #include "polyrad/world/light_sampling.h"
 
 #include <gtest/gtest.h>
@@ -8,6 +9,8 @@
 #include <cmath>
 #include <vector>
 
+#include "polyrad/util/sampling.h"
+#include "polyrad/world/world.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -97,6 +100,104 @@ TEST(LightSampling, DensityOfEachPointIsTheAreaDensityThere) {
     EXPECT_NEAR(inverse_sum / (n * n) * select / patches[p].area, 1.0, 1e-9) << "patch " << p;
   }
   EXPECT_EQ(sampler.area_pdf(0, patches[0].centroid), 0.2 / patches[0].area);
+}
+
+// Every ray that meets a light's front, as the ray caster finds it from the origin it lifts off
+// a patch, is one the lights' boxes let through, and most other rays are not. On the room (six
+// lamps, six boxes): rays from points all over the room, half toward points on the lamps with
+// up to a twentieth of a lamp's size added (to graze their edges from both sides), half in
+// uniform directions.
+TEST(LightSampling, BoxesLetThroughEveryRayThatMeetsALight) {
+  const auto world = World::load(test::scene_path("room"));
+  const PatchSet& patches = world->patches();
+  const RayCaster& caster = world->caster();
+  const LightBounds bounds(patches);
+  ASSERT_EQ(bounds.boxes(), 6u);
+  Rng rng(7);
+  const auto n = static_cast<std::uint32_t>(patches.size());
+  int met = 0, let_through = 0, rays = 0;
+  for (int k = 0; k < 40000; ++k) {
+    const PatchId i = static_cast<PatchId>(rng.next() % n);
+    if (patches[i].emitter) continue;
+    double density;
+    const Vec3 x = patches[i].sample(Vec2(rng.uniform32(), rng.uniform32()), &density);
+    Vec3 d;
+    if (k % 2 == 0) {
+      const LightSample l = world->lights().sample(Vec2(rng.uniform32(), rng.uniform32()));
+      const double size = patches[l.patch].diameter() * 0.05;
+      d = l.point - x +
+          size * Vec3(rng.uniform32() - 0.5, rng.uniform32() - 0.5, rng.uniform32() - 0.5);
+    } else {
+      const double z = 1.0 - 2.0 * rng.uniform32(), phi = 2.0 * kPi * rng.uniform32();
+      const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+      d = Vec3(r * std::cos(phi), r * std::sin(phi), z);
+    }
+    d.normalize();
+    const Vec3 origin = caster.origin_from(x, patches[i], d);
+    const bool may = bounds.may_meet(origin, d);
+    const Hit h = caster.intersect(origin, d);
+    ++rays;
+    let_through += may;
+    if (h.valid() && h.front && patches[h.patch].emitter) {
+      ++met;
+      ASSERT_TRUE(may) << "a ray from patch " << i << " meets light patch " << h.patch;
+    }
+  }
+  EXPECT_GT(met, rays / 10);             // the edges were grazed often
+  EXPECT_LT(let_through, rays * 3 / 4);  // and the boxes do prune
+  EXPECT_GT(let_through, met);
+}
+
+// The boxes hold the lights to about 1e-5 of their coordinates, finer than the ray caster lifts
+// a ray's origin off its patch (1e-5 of the scene's size): they are asked from the origin a
+// ray really leaves, RayCaster::origin_from. A wall facing a lamp's edge across, a ray from it
+// that meets the lamp a tenth of the lift inside that edge: from the point on the wall its line
+// passes outside the lamp's box.
+TEST(LightSampling, BoxesAreAskedFromTheOriginTheRayLeaves) {
+  Patch lamp = test::make_quad({0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1});  // facing down
+  lamp.object = 1;
+  lamp.emitter = true;
+  const Patch wall = test::make_quad({2, 0, 0}, {2, 0, 1}, {2, 1, 1}, {2, 1, 0});  // facing -x
+  const PatchSet patches = test::make_patch_set({lamp, wall});
+  const RayCaster caster(patches);
+  const LightBounds bounds(patches);
+  const double lift = caster.lift(patches[1]);
+  ASSERT_GT(lift, 1e-5);
+  const Vec3 x(2, 0, 0.5);
+  const Vec3 origin = caster.origin_from(x, patches[1], Vec3(-1, 1, 0));
+  const Vec3 d = (Vec3(1 - 0.1 * lift, 1, 0.5) - origin).normalized();
+  const Hit h = caster.intersect(origin, d);
+  ASSERT_TRUE(h.valid() && h.front && h.patch == 0);
+  EXPECT_TRUE(bounds.may_meet(origin, d));
+  EXPECT_FALSE(bounds.may_meet(x, d));
+}
+
+// Beyond kMaxBoxes emitting objects every ray may meet a light; with none, no ray does.
+TEST(LightSampling, BoxesGiveUpBeyondTheirCountAndHoldNothingWithoutLights) {
+  std::vector<Patch> lamps;
+  for (int k = 0; k <= static_cast<int>(LightBounds::kMaxBoxes); ++k) {
+    Patch p =
+        test::make_quad({k * 2.0, 0, 0}, {k * 2.0 + 1, 0, 0}, {k * 2.0 + 1, 1, 0}, {k * 2.0, 1, 0});
+    p.object = k;
+    p.emitter = true;
+    lamps.push_back(p);
+  }
+  const PatchSet many = test::make_patch_set(lamps);
+  const LightBounds all(many);
+  EXPECT_EQ(all.boxes(), 0u);
+  EXPECT_TRUE(all.may_meet(Vec3(0, 0, 5), Vec3(0, 0, 1)));  // away from every lamp
+  lamps.pop_back();
+  const PatchSet fewer = test::make_patch_set(lamps);
+  const LightBounds some(fewer);
+  EXPECT_EQ(some.boxes(), LightBounds::kMaxBoxes);
+  EXPECT_FALSE(some.may_meet(Vec3(0.5, 0.5, 5), Vec3(0, 0, 1)));
+  EXPECT_TRUE(some.may_meet(Vec3(0.5, 0.5, 5), Vec3(0, 0, -1)));
+  EXPECT_TRUE(some.may_meet(Vec3(-3, 0.5, 0), Vec3(1, 0, 0)));  // along the lamps' plane
+  for (Patch& p : lamps) p.emitter = false;
+  const PatchSet dark = test::make_patch_set(lamps);
+  const LightBounds none(dark);
+  EXPECT_EQ(none.boxes(), 0u);
+  EXPECT_FALSE(none.may_meet(Vec3(0.5, 0.5, 5), Vec3(0, 0, -1)));
 }
 
 }  // namespace

@@ -151,8 +151,12 @@ bool RayCaster::segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, Patch
   return segment_occluded(a, patches_[pa], b, patches_[pb]);
 }
 
+Vec3 RayCaster::origin_from(const Vec3& x, const Patch& p, const Vec3& d) const {
+  return lifted(x, p.normal, d, lift(p));
+}
+
 Hit RayCaster::intersect_from(const Vec3& x, const Patch& p, const Vec3& d) const {
-  return intersect(lifted(x, p.normal, d, lift(p)), d, 0.0);
+  return intersect(origin_from(x, p, d), d, 0.0);
 }
 
 Hit RayCaster::intersect_from(const Vec3& x, PatchId p, const Vec3& d) const {

@@ -278,6 +278,7 @@ class GatherRows {
         camera_(camera),
         options_(options),
         corners_(world.patches(), corner_weights(world, layout)),
+        light_bounds_(world.patches()),
         reflectors_(world.patches(), reflector_weights(world, layout, options)),
         diameters_(diameters(world.patches())),
         context_{camera_,
@@ -288,6 +289,7 @@ class GatherRows {
                  options_,
                  corners_,
                  world.lights(),
+                 light_bounds_,
                  reflectors_,
                  diameters_,
                  kept_ ? kept_.get() : direct},
@@ -459,6 +461,7 @@ class GatherRows {
   const Camera camera_;
   const GatherOptions options_;
   const CornerAverages corners_;
+  const LightBounds light_bounds_;
   const LightSampler reflectors_;
   const std::vector<double> diameters_;
   const GatherContext context_;

@@ -19,7 +19,8 @@
 // area on the patches that send specular links against the cosine samples.
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
-// carry their weighted share of Le, and read nothing else.
+// carry their weighted share of Le, and read nothing else (so one whose ray passes no light's
+// box, LightBounds, is not cast).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -411,8 +412,12 @@ class FinalGatherer {
       const Vec3 wi = sample_cosine_hemisphere(stratum(sh.sub, kCosine, s, side, j1, j2));
       if (!(wi.z() > 0.0)) continue;
       const Vec3 dir = sh.frame.to_world(wi);
+      // With the mesh's indirect light such a sample can only add a light's Le: one that no
+      // light's box lies along finds nothing, and is not traced.
+      const Vec3 origin = c_.caster.origin_from(sh.x, c_.patches[sh.i], dir);
+      if (mesh_indirect_ && !c_.light_bounds.may_meet(origin, dir)) continue;
       ++rays;
-      const Hit h = c_.caster.intersect_from(sh.x, sh.i, dir);
+      const Hit h = c_.caster.intersect(origin, dir);
       if (!h.valid() || !h.front) continue;
       if (mesh_indirect_) {  // the mesh gave the rest: only a light's weighted share of Le
         add_emission(sh, h, dir, w, wi.z() * kInvPi, count, terms);

@@ -79,6 +79,7 @@ struct GatherContext {
   const GatherOptions& options;
   const CornerAverages& corners;
   const LightSampler& lights;
+  const LightBounds& light_bounds;  // whether a ray may meet a light (the final gather's kMesh)
   const LightSampler& reflectors;  // the final gather's reflector points (by area)
   const std::vector<double>& diameters;  // per patch, Patch::diameter (asked at every hit)
   const MeshDirect* direct;              // the final gather's IndirectMode::kMesh; else may be null

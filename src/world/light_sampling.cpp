@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
 
 #include "polyrad/util/error.h"
 
@@ -102,6 +104,58 @@ double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
   q.tangents(u, v, &du, &dv);
   double jacobian = du.cross(dv).norm();
   return jacobian > 0.0 ? select / jacobian : 0.0;
+}
+
+LightBounds::LightBounds(const PatchSet& patches) {
+  std::map<ObjectId, std::size_t> box_of;
+  double extent = 0.0;  // the largest coordinate met, for the padding below
+  for (std::size_t i = 0; i < patches.size(); ++i) {
+    const Patch& p = patches[i];
+    if (!p.emitter) continue;
+    const auto [it, added] = box_of.emplace(p.object, lo_.size());
+    if (added) {
+      lo_.push_back(p.corner[0]);
+      hi_.push_back(p.corner[0]);
+    }
+    for (int k = 0; k < p.corners; ++k) {
+      lo_[it->second] = lo_[it->second].cwiseMin(p.corner[k]);
+      hi_[it->second] = hi_[it->second].cwiseMax(p.corner[k]);
+      extent = std::max(extent, p.corner[k].cwiseAbs().maxCoeff());
+    }
+  }
+  if (lo_.size() > kMaxBoxes) {
+    all_ = true;
+    return;
+  }
+  // A flat lamp's box has no thickness: pad every box well above the single precision in which
+  // the ray caster holds the geometry (about 1e-7 of a coordinate).
+  const double pad = 1e-5 * extent + 1e-12;
+  for (std::size_t b = 0; b < lo_.size(); ++b) {
+    lo_[b].array() -= pad;
+    hi_[b].array() += pad;
+  }
+}
+
+bool LightBounds::may_meet(const Vec3& x, const Vec3& dir) const {
+  if (all_) return true;
+  for (std::size_t b = 0; b < lo_.size(); ++b) {
+    double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+    bool miss = false;
+    for (int a = 0; a < 3 && !miss; ++a) {
+      if (dir[a] == 0.0) {  // parallel to this slab: inside it or never
+        miss = x[a] < lo_[b][a] || x[a] > hi_[b][a];
+        continue;
+      }
+      const double inv = 1.0 / dir[a];
+      double near = (lo_[b][a] - x[a]) * inv, far = (hi_[b][a] - x[a]) * inv;
+      if (near > far) std::swap(near, far);
+      t0 = std::max(t0, near);
+      t1 = std::min(t1, far);
+      miss = t0 > t1;
+    }
+    if (!miss) return true;
+  }
+  return false;
 }
 
 }  // namespace polyrad

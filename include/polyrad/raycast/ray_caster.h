@@ -64,6 +64,8 @@ class RayCaster {
   // leaves on, and the ray starts there (tnear 0). Hit::t counts from the lifted origin.
   Hit intersect_from(const Vec3& x, PatchId p, const Vec3& d) const;
   Hit intersect_from(const Vec3& x, const Patch& p, const Vec3& d) const;
+  // The origin intersect_from casts from: x lifted by lift(p) to the side d leaves on.
+  Vec3 origin_from(const Vec3& x, const Patch& p, const Vec3& d) const;
   // The distance a point of patch p is lifted: epsilon() + its bend.
   double lift(const Patch& p) const { return epsilon_ + p.bend; }
   // The patches the rays meet (Hit::patch indexes these).

@@ -71,4 +71,29 @@ class LightSampler {
   double total_ = 0.0;
 };
 
+// Boxes around the named lights (the patches marked emitter), one per emitting object: whether
+// a ray may meet a light at all. A BRDF sample that only looks for the lights (the final
+// gather's IndirectMode::kMesh) need not be traced when it cannot; the answer is conservative,
+// so what such a sample adds is unchanged, only the rays that would find nothing are saved.
+//
+//   LightBounds bounds(patches);
+//   if (bounds.may_meet(x, dir)) hit = caster.intersect_from(x, i, dir);
+//
+// Cost: one slab test per box (kMaxBoxes at most; beyond that every ray may meet a light).
+class LightBounds {
+ public:
+  explicit LightBounds(const PatchSet& patches);
+  // False only if the ray x + t dir, t >= 0, misses every box.
+  bool may_meet(const Vec3& x, const Vec3& dir) const;
+  // The boxes tested; 0 with no lights, or with more emitting objects than kMaxBoxes (then
+  // may_meet is always true).
+  std::size_t boxes() const { return all_ ? 0 : lo_.size(); }
+
+  static constexpr std::size_t kMaxBoxes = 16;
+
+ private:
+  std::vector<Vec3> lo_, hi_;
+  bool all_ = false;
+};
+
 }  // namespace polyrad
