@@ -258,11 +258,8 @@ TEST(Hierarchy, ColumnSumsInFluxFormStayWithinTheLargestAlbedo) {
   }
 }
 
-// Refinement concentrates where the light changes: a block on a floor under a wide lamp, and the
-// floor's leaves along the block's base (contact shadow, near field) are several times denser
-// than half a metre away (where the floor sees the lamp whole and everything else from afar).
-TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
-  const char* json = R"({
+// A grey block on a grey floor under a wide lamp.
+constexpr const char* kBlockUnderALamp = R"({
     "camera": {"position": [1, 1.5, -1], "look_at": [1, 0, 1], "fov_deg": 60, "width": 8, "height": 8},
     "patch_size": 0.25,
     "materials": {"grey": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
@@ -282,7 +279,12 @@ TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
       {"name": "north", "material": "grey",
        "polygon": [[0.8, 0, 1.2], [1.2, 0, 1.2], [1.2, 0.4, 1.2], [0.8, 0.4, 1.2]]}
     ]})";
-  auto sys = build(test::scene_from_json(json), hierarchical(0.1, 1.0 / 32));
+
+// Refinement concentrates where the light changes: a block on a floor under a wide lamp, and the
+// floor's leaves along the block's base (contact shadow, near field) are several times denser
+// than half a metre away (where the floor sees the lamp whole and everything else from afar).
+TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
+  auto sys = build(test::scene_from_json(kBlockUnderALamp), hierarchical(0.1, 1.0 / 32));
   const ElementHierarchy& h = *sys->hierarchy;
   const ObjectId floor = sys->scene().find_object("floor");
   double near_area = 0.0, far_area = 0.0;
@@ -491,6 +493,38 @@ Eigen::Array3d root_mean(const RadiositySystem& sys, const Field& u, PatchId roo
     area += e.exposed;
   }
   return area > 0.0 ? Eigen::Array3d(sum / area) : sum;
+}
+
+// The links' pair form factors cast open_link_rays shadow rays per point below the roots where
+// the oracle saw no shadow, and visibility_rays (4) elsewhere. On the block under the wide lamp,
+// one ray there casts less than half the rays of four, and every root's light is the same to
+// a thousandth of the floor's mean (here exactly: what the oracle saw open is open).
+TEST(Hierarchy, ShadowRaysGoWhereTheOracleSawAShadow) {
+  auto with_rays = [](int rays) {
+    Options o = hierarchical(0.05, 1.0 / 32);
+    o.system.hierarchy.passes = 1;
+    o.system.hierarchy.open_link_rays = rays;
+    return build(test::scene_from_json(kBlockUnderALamp), o);
+  };
+  auto one = with_rays(1), four = with_rays(4);
+  ASSERT_EQ(one->hierarchy->links().size(), four->hierarchy->links().size());
+  EXPECT_LT(2 * one->hierarchy->stats().form_factor_rays,
+            four->hierarchy->stats().form_factor_rays);
+  const Field u1 = solve(one->transport, one->transport.emission()).u;
+  const Field u4 = solve(four->transport, four->transport.emission()).u;
+  const ObjectId floor = four->scene().find_object("floor");
+  const auto roots = static_cast<PatchId>(four->patches().size());
+  double floor_mean = 0.0;
+  int floor_roots = 0;
+  for (PatchId r = 0; r < roots; ++r)
+    if (four->patches()[r].object == floor) {
+      floor_mean += root_mean(*four, u4, r)[0];
+      ++floor_roots;
+    }
+  floor_mean /= floor_roots;
+  for (PatchId r = 0; r < roots; ++r)
+    EXPECT_NEAR(root_mean(*one, u1, r)[0], root_mean(*four, u4, r)[0], 1e-3 * floor_mean)
+        << "root " << r;
 }
 
 // The furnace with lobes: a closed box whose faces mix diffuse, mirror and half-and-half

@@ -701,6 +701,8 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
   std::int64_t total = 0;
   for (const auto& chunk : pending_) total += static_cast<std::int64_t>(chunk.size());
   long long rays = 0;
+  FormFactorOptions open_rules = o_.form_factors;
+  open_rules.visibility_rays = std::max(1, o_.open_link_rays);
   Progress progress("hierarchy form factors", total);
   for (auto& chunk : pending_) {
     const auto count = static_cast<std::int64_t>(chunk.size());
@@ -711,7 +713,8 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
       // Integrate over the smaller element, as the uniform mesh does (with its key for two roots,
       // so that a tree of one level reproduces the uniform system exactly).
       std::int32_t x = l.a, y = l.b;
-      if (el_[x].parent < 0 && el_[y].parent < 0) {
+      const bool roots = el_[x].parent < 0 && el_[y].parent < 0;
+      if (roots) {
         const std::int32_t i = std::min(x, y), j = std::max(x, y);
         x = el_[i].shape.area <= el_[j].shape.area ? i : j;
         y = x == i ? j : i;
@@ -719,10 +722,13 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
                  (el_[y].shape.area == el_[x].shape.area && el_[y].key < el_[x].key)) {
         std::swap(x, y);
       }
+      const bool no_shadow_seen =
+          l.visibility == LinkVisibility::kVisible || l.visibility == LinkVisibility::kUntested;
       const Element& ex = el_[x];
       long long r = 0;
-      const double g = pair_area_form_factor(ex.shape, el_[y].shape, &caster_, o_.form_factors,
-                                             pair_key(x, y), &r, exposure_of(x));
+      const double g = pair_area_form_factor(
+          ex.shape, el_[y].shape, &caster_, !roots && no_shadow_seen ? open_rules : o_.form_factors,
+          pair_key(x, y), &r, exposure_of(x));
       rays += r;
       if (x != l.a) l.swap_ends();
       l.m = g > 0.0 && ex.exposed > 0.0 ? static_cast<float>(g / ex.exposed) : 0.0f;

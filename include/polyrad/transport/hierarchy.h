@@ -71,7 +71,8 @@
 //
 // Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
 // refinement costs ten point form factors and at most visibility_rays rays per candidate, and
-// each link one pair form factor (eq. 4, as the uniform mesh). Memory: about 420 bytes per
+// each link one pair form factor (eq. 4, as the uniform mesh; with open_link_rays shadow rays
+// per point where the oracle saw no shadow below the roots). Memory: about 420 bytes per
 // element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 44
 // per link while building (its oracle values in 16 bits), 12 once built and 48 in T (both
 // directions, five floats and an index each); one application reads every link twice and each tree
@@ -121,8 +122,15 @@ struct HierarchyOptions {
   int visibility_rays = 16;
   // Scale the leaves whose column would sum above a_max (see above); off only to compare.
   bool energy_guard = true;
-  // The pair form factor of each link (eq. 4), as the uniform mesh computes it.
+  // The pair form factor of each link (eq. 4), as the uniform mesh computes it ...
   FormFactorOptions form_factors;
+  // ... but with this many shadow rays per quadrature point (form_factors.visibility_rays
+  // elsewhere) on a link below the roots where the oracle saw no shadow: every one of its rays
+  // open, or linked without rays since all of the pair's light is within the tolerance. The
+  // estimate stays unbiased; the rays go where the shadows are. Root pairs keep the uniform
+  // mesh's count, so that a tree of one level reproduces the uniform system exactly. At least 1
+  // (0 is taken as 1: a pair the oracle's few rays saw open may still be partly hidden).
+  int open_link_rays = 1;
   std::uint64_t seed = 5;  // the oracle's visibility rays
   // Lobes (eq. H3): the transfer on the roots, computed once after the first pass; off, every
   // material is reduced to its diffuse part.
