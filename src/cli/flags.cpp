@@ -140,8 +140,12 @@ void GatherFlags::add(CLI::App& app) {
       ->check(CLI::Range(1, 4096));
   app.add_option("--light-samples", light_samples,
                  "Points on the lights per glossy hit (patch gather) or per sub-pixel ray's hit "
-                 "(final gather), weighted against the BRDF samples (0: BRDF samples alone)" +
-                     both(patch.light_samples, final.light_samples))
+                 "(final gather), weighted against the BRDF samples (0: BRDF samples alone) "
+                 "(default " +
+                     number_text(patch.light_samples) + " for the patch gather, " +
+                     number_text(final.light_samples) + " for the final, " +
+                     number_text(GatherOptions::final_gather(IndirectMode::kMesh).light_samples) +
+                     " with --indirect mesh)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--gather-samples", gather_samples,
                  "Final gather: cosine samples of a diffuse surface per sub-pixel ray (default " +
