@@ -1145,11 +1145,14 @@ void HierarchyBuilder::run() {
 void HierarchyBuilder::publish_links() {
   std::vector<LinkedPair> pairs;
   pairs.reserve(static_cast<std::size_t>(link_count()));
-  for (const auto& chunk : links_)
+  // What the oracle measured goes chunk by chunk as it is copied, before the last specular part
+  // is built: freed only at the end, the mirror cube's 19 MB of kept links beside the 5 MB of
+  // these and the operator were the build's peak (74 MB against 70 at make_operator).
+  for (auto& chunk : links_) {
     for (const KeptLink& l : chunk) pairs.push_back({l.a, l.b, l.m});
+    std::vector<KeptLink>().swap(chunk);
+  }
   h_.links_.swap(pairs);
-  // What the oracle measured goes before the last specular part is built (on the mirror cube at
-  // tau 0.05, 19 MB of kept links beside the 5 MB of these).
   LinkChunks().swap(links_);
 }
 
