@@ -57,6 +57,7 @@ int run_render(RenderFlags& f) {
   o.system = f.system.system();
   o.solve.tolerance = o.series.tolerance = f.tolerance;
   o.gather = f.gather.options();
+  o.image_codec = image_needs_codec(f.output);
   const RenderResult r = render(f.scene, o);
   if (r.report.system) print_warnings(r.report.system->lobes);
   write_image(r.image, f.output, ImageWriteOptions{f.exposure});

@@ -87,6 +87,11 @@ bool is_image_path(const std::string& path) {
   return ext == ".exr" || ext == ".pfm" || ext == ".png";
 }
 
+bool image_needs_codec(const std::string& path) {
+  const std::string ext = extension_of(path);
+  return ext == ".exr" || ext == ".png";
+}
+
 void write_image(const Image& image, const std::string& path, const ImageWriteOptions& options) {
   std::string ext = extension_of(path);
   if (!is_image_path(path))

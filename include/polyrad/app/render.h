@@ -48,6 +48,9 @@ struct RenderOptions {
   SeriesOptions series;                                  // series (its output is always view rows)
   PathTraceOptions pathtrace;                            // pathtrace
   GatherOptions gather = GatherOptions::final_gather();  // iterative and series
+  // The image goes to an .exr or a .png (image_needs_codec): the codec module's memory is
+  // counted in the estimate, since it loads while the run's system is still held.
+  bool image_codec = true;
 };
 
 struct RenderResult {

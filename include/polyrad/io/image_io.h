@@ -27,6 +27,9 @@ void write_image(const Image& image, const std::string& path,
 Image read_image(const std::string& path);
 // True if write_image knows the extension of path.
 bool is_image_path(const std::string& path);
+// True if writing path loads the codec module (.exr, .png; io/image_codec.h): a workflow's
+// memory estimate counts the module's 110 MiB only then.
+bool image_needs_codec(const std::string& path);
 
 // sRGB encoding of linear c * exposure, clamped to [0, 1], as 8-bit values.
 std::array<unsigned char, 3> to_srgb8(const Rgb& c, double exposure);
