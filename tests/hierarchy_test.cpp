@@ -497,19 +497,22 @@ Eigen::Array3d root_mean(const RadiositySystem& sys, const Field& u, PatchId roo
 
 // The links' pair form factors cast open_link_rays shadow rays per point below the roots where
 // the oracle saw no shadow, and visibility_rays (4) elsewhere. On the block under the wide lamp,
-// one ray there casts less than half the rays of four, and every root's light is the same to
-// a thousandth of the floor's mean (here exactly: what the oracle saw open is open).
+// one ray there casts less than half the rays of four, and more than one ray everywhere (the
+// shadowed links and the root pairs keep four), and every root's light is the same to a
+// thousandth of the floor's mean.
 TEST(Hierarchy, ShadowRaysGoWhereTheOracleSawAShadow) {
-  auto with_rays = [](int rays) {
+  auto with_rays = [](int open, int everywhere) {
     Options o = hierarchical(0.05, 1.0 / 32);
     o.system.hierarchy.passes = 1;
-    o.system.hierarchy.open_link_rays = rays;
+    o.system.hierarchy.open_link_rays = open;
+    o.system.form_factors.visibility_rays = everywhere;
     return build(test::scene_from_json(kBlockUnderALamp), o);
   };
-  auto one = with_rays(1), four = with_rays(4);
+  auto one = with_rays(1, 4), four = with_rays(4, 4), all_one = with_rays(1, 1);
   ASSERT_EQ(one->hierarchy->links().size(), four->hierarchy->links().size());
-  EXPECT_LT(2 * one->hierarchy->stats().form_factor_rays,
-            four->hierarchy->stats().form_factor_rays);
+  const long long rays_one = one->hierarchy->stats().form_factor_rays;
+  EXPECT_LT(2 * rays_one, four->hierarchy->stats().form_factor_rays);
+  EXPECT_LT(all_one->hierarchy->stats().form_factor_rays, rays_one);
   const Field u1 = solve(one->transport, one->transport.emission()).u;
   const Field u4 = solve(four->transport, four->transport.emission()).u;
   const ObjectId floor = four->scene().find_object("floor");

@@ -1,4 +1,4 @@
-// Next-event estimation's light sampler (light_sampling.h).
+// Next-event estimation's light sampler and the lights' boxes (light_sampling.h).
 #include "polyrad/world/light_sampling.h"
 
 #include <algorithm>
@@ -108,9 +108,11 @@ double LightSampler::area_pdf(PatchId p, const Vec3& y) const {
 
 LightBounds::LightBounds(const PatchSet& patches) {
   std::map<ObjectId, std::size_t> box_of;
-  double extent = 0.0;  // the largest coordinate met, for the padding below
+  double extent = patches.scene_diameter;  // the scene's scale, for the padding below
   for (std::size_t i = 0; i < patches.size(); ++i) {
     const Patch& p = patches[i];
+    for (int k = 0; k < p.corners; ++k)
+      extent = std::max(extent, p.corner[k].cwiseAbs().maxCoeff());
     if (!p.emitter) continue;
     const auto [it, added] = box_of.emplace(p.object, lo_.size());
     if (added) {
@@ -120,7 +122,6 @@ LightBounds::LightBounds(const PatchSet& patches) {
     for (int k = 0; k < p.corners; ++k) {
       lo_[it->second] = lo_[it->second].cwiseMin(p.corner[k]);
       hi_[it->second] = hi_[it->second].cwiseMax(p.corner[k]);
-      extent = std::max(extent, p.corner[k].cwiseAbs().maxCoeff());
     }
   }
   if (lo_.size() > kMaxBoxes) {
@@ -128,7 +129,9 @@ LightBounds::LightBounds(const PatchSet& patches) {
     return;
   }
   // A flat lamp's box has no thickness: pad every box well above the single precision in which
-  // the ray caster holds the geometry (about 1e-7 of a coordinate).
+  // the ray caster holds the geometry and casts its rays, about 1e-7 of the scene's largest
+  // coordinate or size, not the lamp's (a ray from 10 units away finds a lamp 0.01 wide at the
+  // origin up to 1e-6 outside its edges).
   const double pad = 1e-5 * extent + 1e-12;
   for (std::size_t b = 0; b < lo_.size(); ++b) {
     lo_[b].array() -= pad;

@@ -126,10 +126,14 @@ struct HierarchyOptions {
   FormFactorOptions form_factors;
   // ... but with this many shadow rays per quadrature point (form_factors.visibility_rays
   // elsewhere) on a link below the roots where the oracle saw no shadow: every one of its rays
-  // open, or linked without rays since all of the pair's light is within the tolerance. The
-  // estimate stays unbiased; the rays go where the shadows are. Root pairs keep the uniform
-  // mesh's count, so that a tree of one level reproduces the uniform system exactly. At least 1
-  // (0 is taken as 1: a pair the oracle's few rays saw open may still be partly hidden).
+  // open, or linked without rays since all of the pair's light is within the tolerance (judged
+  // again later and found shadowed, it is integrated again with the full count). Exact where
+  // the pair is wholly visible or hidden; in a penumbra a point's one ray estimates the share
+  // of the other element it sees by area rather than weighed by the kernel, which over a small
+  // element hardly differs, with more noise. The rays go where the oracle saw shadows. Root
+  // pairs keep the uniform mesh's count, so that a tree of one level reproduces the uniform
+  // system exactly. At least 1 (0 is taken as 1: a pair the oracle's few rays saw open may
+  // still be partly hidden), at most form_factors.visibility_rays.
   int open_link_rays = 1;
   std::uint64_t seed = 5;  // the oracle's visibility rays
   // Lobes (eq. H3): the transfer on the roots, computed once after the first pass; off, every

@@ -1,6 +1,6 @@
 // Next-event estimation: points drawn on the emitting patches, and the weight that combines
 // such a sample with a BRDF sample by multiple importance (the path tracer and the camera
-// gather both use them).
+// gather both use them); and the lights' boxes, which tell a ray that cannot meet a light.
 //
 //   LightSampler lights(patches, weights);          // weights[p] >= 0; 0: never drawn
 //   LightSample s = lights.sample(u_select, u_point);
@@ -77,8 +77,12 @@ class LightSampler {
 // so what such a sample adds is unchanged, only the rays that would find nothing are saved.
 //
 //   LightBounds bounds(patches);
-//   if (bounds.may_meet(x, dir)) hit = caster.intersect_from(x, i, dir);
+//   const Vec3 o = caster.origin_from(x, patches[i], dir);  // where the ray really leaves
+//   if (bounds.may_meet(o, dir)) hit = caster.intersect(o, dir);
 //
+// Each box is padded by 1e-5 of the scene's largest coordinate or size, far above the single
+// precision of the ray caster's geometry; asked from x itself instead of the lifted origin, a
+// ray that grazes a lamp's edge may be wrongly refused.
 // Cost: one slab test per box (kMaxBoxes at most; beyond that every ray may meet a light).
 class LightBounds {
  public:
