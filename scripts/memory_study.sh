@@ -38,11 +38,11 @@ EOF
 
 : > "$out/runs.tsv"
 n=0
-run() {  # run LABEL COMMAND ARGS...: one run, its report kept as DIR/N.json
+run() {  # [EXT=pfm] run LABEL COMMAND ARGS...: one run, its report kept as DIR/N.json
   local label="$1"
   shift
   n=$((n + 1))
-  local output="$out/$n.exr"
+  local output="$out/$n.${EXT:-exr}"
   [ "$1" = precompute ] && output="$out/$n.prt"
   echo "memory study: $label" >&2
   "$POLYRAD" --quiet "$@" -o "$output" --report "$out/$n.json" > /dev/null
@@ -63,6 +63,12 @@ run "render cornell-box, hierarchical, tau 0.05" render "$box" --mesh hierarchic
 run "render cornell-mirror-cube, hierarchical, tau 0.05" render "$mirror" --mesh hierarchical --link-tolerance 0.05
 run "render cornell-mirror-cube, hierarchical (the final gather's tau, 0.07)" render "$mirror" --mesh hierarchical
 run "render cornell-box, hierarchical, tau 0.02" render "$box" --mesh hierarchical --link-tolerance 0.02
+# To .pfm (no codec): the hierarchy's share is most of the peak.
+EXT=pfm run "render cornell-box, hierarchical, no refinement pass (.pfm)" render "$box" \
+  --mesh hierarchical --refine-passes 0
+EXT=pfm run "render cornell-box, hierarchical (.pfm)" render "$box" --mesh hierarchical
+EXT=pfm run "render cornell-mirror-cube, hierarchical, mesh mode, one pass (.pfm)" render \
+  "$mirror" --mesh hierarchical --indirect mesh --refine-passes 1
 big="$(at "$box" 1024)"
 run "render cornell-box at 1024 x 1024, patch gather" render "$big" --gather patch
 run "render cornell-box at 1024 x 1024, final gather" render "$big"

@@ -121,15 +121,19 @@ TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
   if (test::kUnderAddressSanitizer)
     GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";
   // A specular scene (the mirror's transfer entries) and a diffuse one at a finer mesh (the form
-  // factors), each with the stored patch gather: what the report says was estimated against
-  // the process's peak resident set. The first writes an .exr (the codec module loaded beside
-  // the system), the second a .pfm (no module, none counted).
+  // factors), each with the stored patch gather, and a hierarchy of one refinement pass read by
+  // the final gather: what the report says was estimated against the process's peak resident
+  // set. The first writes an .exr (the codec module loaded beside the system), the others a .pfm
+  // (no module, none counted).
   auto dir = test::temp_dir();
   const std::string report = (dir / "r.json").string();
   for (const std::string& args :
        {"render " + test::scene_path("cornell-mirror-cube") +
             " --patch-size 35 --gather patch -o " + (dir / "x.exr").string(),
         "render " + test::scene_path("cornell-box") + " --patch-size 25 --gather patch -o " +
+            (dir / "x.pfm").string(),
+        "render " + test::scene_path("cornell-box") +
+            " --mesh hierarchical --indirect mesh --refine-passes 1 -o " +
             (dir / "x.pfm").string()}) {
     CommandRun r = run(args + " --report " + report);
     ASSERT_EQ(r.code, 0) << args << "\n" << r.err;

@@ -13,6 +13,7 @@
 #include "polyrad/render/camera_gather.h"
 #include "polyrad/solve/series_precompute.h"
 #include "polyrad/solve/solver.h"
+#include "polyrad/transport/memory_estimate.h"
 #include "polyrad/transport/system.h"
 #include "polyrad/util/error.h"
 #include "polyrad/util/sampling.h"
@@ -743,6 +744,24 @@ TEST(Hierarchy, OneLevelTreeIsTheUniformSystemWithLobes) {
                   1e-6 * u->transport.flux_weight()[r])
           << scene << " row " << r;
   }
+}
+
+// The memory estimate follows what the build holds: each refinement pass adds links and, from
+// the second, the previous operator held through the solve (a third pass adds next to nothing),
+// and a tighter tolerance adds links, a looser one removes them.
+TEST(Hierarchy, MemoryEstimateFollowsThePassesAndTheTolerance) {
+  const Scene scene = load_scene(test::scene_path("cornell-box"));
+  const auto hierarchy_bytes = [&](int passes, double tolerance) {
+    SystemOptions o = hierarchical(tolerance).system;
+    o.hierarchy.passes = passes;
+    return estimate_memory(scene, o).system;
+  };
+  EXPECT_LT(hierarchy_bytes(0, 0.05), hierarchy_bytes(1, 0.05));
+  EXPECT_LT(hierarchy_bytes(1, 0.05), hierarchy_bytes(2, 0.05));
+  EXPECT_EQ(hierarchy_bytes(2, 0.05), hierarchy_bytes(3, 0.05));
+  EXPECT_LT(hierarchy_bytes(2, 0.07), hierarchy_bytes(2, 0.05));
+  EXPECT_LT(hierarchy_bytes(2, 0.05), hierarchy_bytes(2, 0.02));
+  EXPECT_LT(hierarchy_bytes(2, 0.02), hierarchy_bytes(2, 0.005));
 }
 
 }  // namespace

@@ -17,30 +17,34 @@ constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
 // The hierarchy keeps the roots' transfer (12 bytes an entry) and the specular links' rows read
-// from it (8), built one reflector at a time: the room at tau 0.1 peaked 155 MiB lower once the
-// rows stopped holding a vector per link, and these entries were then over-counted at 50 bytes.
-// 20 bytes are held; 25 leaves a margin for what the transfer's computation holds beside them
-// (not measured apart).
-constexpr double kRootEntryBytes = 25.0;
-constexpr double kRootPairBytes = 360.0;
+// from it (8), built one reflector at a time. Measured on 2026-12-05 (.pfm, no codec): the room's
+// transfer and links held 278 MiB beyond its diffuse-only build (--classic) against 195 counted
+// at 25 bytes an entry, cornell-glossy's 32 against 26; 35 bytes cover both.
+constexpr double kRootEntryBytes = 35.0;
+// The links at tau 0.05 and two refinement passes: 1.9 links a visible root pair at 80 to 120
+// bytes each (the builder's 44 bytes a kept link, the finished link, its operator rows and the
+// leaves), from the peaks of cornell-box, cornell-glossy, the mirror cube and the room.
+constexpr double kRootPairBytes = 260.0;
 constexpr double kVisibleShareOfFacing = 0.75;
 // Before meshing, work is refused only if it would not fit even were this share of the facing
 // pairs all that see each other: a cluttered scene whose pairs are mostly blocked is left to the
 // world's estimate, which samples visibility with rays before any form factor is computed.
 constexpr double kVisibleShareFloor = 0.1;
-// A tighter link tolerance refines further. Fitted on cornell-box's build peaks (and the room's
-// at 0.02): the hierarchy's share grew 1.6 to 1.75 times from tau 0.05 to 0.02, where links are
-// added near edges and shadows, then about 2.7 times per halving down to 0.005, where the leaves
-// near their smallest size link to each other nearly all to all.
-constexpr double kCoarseExponent = 0.6;  // tau 0.2 to 0.02
+// A tighter link tolerance refines further, a looser one less, down to the roots' own pairs.
+// Fitted on 2026-12-05 to the peaks of cornell-box from tau 0.2 to 0.005 and of the room at
+// 0.07, 0.05 and 0.02: links a root pair 1.0, 1.5, 1.9, 4.9 (the room 3.8), 13 and 37 at tau
+// 0.2, 0.07, 0.05, 0.02, 0.01 and 0.005.
+constexpr double kLooseExponent = 0.6;   // above 0.05
+constexpr double kMiddleExponent = 0.8;  // 0.05 to 0.02
 constexpr double kFineTolerance = 0.02;
-constexpr double kFineExponent = 1.3;  // below 0.02
+constexpr double kFineExponent = 1.5;  // below 0.02
 constexpr double kMaxRefinementGrowth = 64.0;
-// A looser tolerance refines less, down to links between the roots themselves: the room's
-// render peaked at 596 MiB at tau 0.07 against 656 at 0.05 (.exr written), which the estimate
-// at 0.05's size overstated 1.54 times. The same exponent above 0.05, floored at 0.4 (tau 0.23
-// and looser), since links are never coarser than the roots' pairs; the floor is not fitted.
-constexpr double kMinRefinementGrowth = 0.4;
+constexpr double kMinRefinementGrowth = 0.2;
+// Each refinement pass after the first solves and judges every link again with the radiosities
+// it found, and from the second on the builder holds the previous operator and its kept links
+// through the solve: the peaks of the first pass alone and of one further pass were 0.33 to 0.6
+// and 0.83 to 0.95 of two passes' hierarchy share (the same four scenes); a third adds < 1 %.
+constexpr double kPassShare[] = {0.4, 0.8, 1.0};
 constexpr int kPairSamples = 4096;
 
 bool facing(const Vec3& ca, const Vec3& na, const Vec3& cb, const Vec3& nb) {
@@ -62,10 +66,13 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
     const double tau = std::max(1e-6, o.hierarchy.tolerance());
     const double transfer =
         o.hierarchy.specular_links ? reflector_pairs_targets * kRootEntryBytes : 0.0;
-    const double coarse = std::pow(0.05 / std::max(tau, kFineTolerance), kCoarseExponent);
+    const double coarse = tau >= 0.05
+                              ? std::pow(0.05 / tau, kLooseExponent)
+                              : std::pow(0.05 / std::max(tau, kFineTolerance), kMiddleExponent);
     const double fine = tau < kFineTolerance ? std::pow(kFineTolerance / tau, kFineExponent) : 1.0;
     const double growth = std::clamp(coarse * fine, kMinRefinementGrowth, kMaxRefinementGrowth);
-    return pairs * kRootPairBytes * growth + transfer;
+    const double passes = kPassShare[std::clamp(o.hierarchy.passes, 0, 2)];
+    return pairs * kRootPairBytes * growth * passes + transfer;
   }
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
 }

@@ -10,10 +10,11 @@
 //            (entries: each reflector patch's visible partners times the targets a pair
 //            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe, at most
 //            twice the partners)
-//            a hierarchy: 360 bytes a visible root pair at link tolerance 0.05, scaled by
-//            (0.05 / tau)^0.6 from tau 0.23 (0.4 times, the least) down to 0.02 and then by
-//            (0.02 / tau)^1.3 (at most 64 times) as the tolerance tightens, and with lobes
-//            the transfer on its roots and the root links' rows 25 bytes an entry
+//            a hierarchy: 260 bytes a visible root pair at link tolerance 0.05 and two
+//            refinement passes, scaled by (0.05 / tau)^0.6 above 0.05 (0.2 times, the least,
+//            from tau 0.73), (0.05 / tau)^0.8 down to 0.02 and then by (0.02 / tau)^1.5 (at
+//            most 64 times); by 0.4 with no pass after the first and 0.8 with one; with lobes
+//            the transfer on its roots and the root links' rows 35 bytes an entry
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
 //            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
