@@ -22,7 +22,7 @@ constexpr double kEntryBytes = 50.0;
 // at 25 bytes an entry, cornell-glossy's 32 against 26; 35 bytes cover both.
 constexpr double kRootEntryBytes = 35.0;
 // The links at tau 0.05 and two refinement passes: 1.9 links a visible root pair at 80 to 120
-// bytes each (the builder's 44 bytes a kept link, the finished link, its operator rows and the
+// bytes each (the builder's 32 bytes a kept link, the finished link, its operator rows and the
 // leaves), from the peaks of cornell-box, cornell-glossy, the mirror cube and the room.
 constexpr double kRootPairBytes = 260.0;
 constexpr double kVisibleShareOfFacing = 0.75;

@@ -162,7 +162,7 @@ struct Element {
 // A link of the finished hierarchy: elements a and b and one pair form factor for both
 // directions, F_ab = m (the mean over a's exposed points of the point form factor to b) and
 // F_ba = m A'_a / A'_b. What the oracle measured on it while refining (point values, rays) is
-// dropped when the build ends: 44 bytes a link between passes, 64 while a link is judged.
+// dropped when the build ends: 32 bytes a link between passes, 64 while a link is judged.
 struct LinkedPair {
   std::int32_t a = 0, b = 0;
   float m = 0.0f;
