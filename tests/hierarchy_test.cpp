@@ -748,7 +748,8 @@ TEST(Hierarchy, OneLevelTreeIsTheUniformSystemWithLobes) {
 
 // The memory estimate follows what the build holds: each refinement pass adds links and, from
 // the second, the previous operator held through the solve (a third pass adds next to nothing),
-// and a tighter tolerance adds links, a looser one removes them.
+// and a tighter tolerance adds links, a looser one removes them, with no jump where the fitted
+// exponent changes (tau 0.05 and 0.02).
 TEST(Hierarchy, MemoryEstimateFollowsThePassesAndTheTolerance) {
   const Scene scene = load_scene(test::scene_path("cornell-box"));
   const auto hierarchy_bytes = [&](int passes, double tolerance) {
@@ -762,6 +763,10 @@ TEST(Hierarchy, MemoryEstimateFollowsThePassesAndTheTolerance) {
   EXPECT_LT(hierarchy_bytes(2, 0.07), hierarchy_bytes(2, 0.05));
   EXPECT_LT(hierarchy_bytes(2, 0.05), hierarchy_bytes(2, 0.02));
   EXPECT_LT(hierarchy_bytes(2, 0.02), hierarchy_bytes(2, 0.005));
+  for (double tau : {0.05, 0.02})
+    EXPECT_NEAR(hierarchy_bytes(2, tau * (1 - 1e-9)), hierarchy_bytes(2, tau * (1 + 1e-9)),
+                1e-6 * hierarchy_bytes(2, tau))
+        << tau;
 }
 
 }  // namespace

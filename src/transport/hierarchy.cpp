@@ -35,13 +35,15 @@ struct ElementLink {
 // the square root of their fraction of a scale (the partly hidden pair's F_max, else the largest
 // value), so 32 bytes where an ElementLink takes 64; the links are the build's largest array,
 // held beside the operator through each solve between passes (14 MB on the mirror cube at tau
-// 0.05). A value comes back within 0.4 percent of its side's largest, and a small one within
-// 4 percent of itself at a tenth of the largest: below the spread the oracle weighs (tau of the
-// mean, eq. H1) at the tolerances the gathers use. 16-bit codes held 12 bytes more a link for
-// the same images (the mirror cube, cornell-box, cornell-glossy and the room at tau 0.05 and
-// 0.07: relative RMSE the same to four digits, links within 0.6 percent). At tight tolerances
-// the codes' steps ask for some splits more (cornell-box: 2 percent more links at tau 0.02, 12
-// at 0.005), each time with a lower peak and the same image error.
+// 0.05). A value comes back within 0.4 percent of its side's scale, and a small one within about
+// 1.2 percent of itself at a tenth of the scale, 4 percent at a hundredth (a heavily shadowed
+// point of a partly hidden pair, whose scale is the unshadowed F_max). The oracle judges by them
+// (below the spread it weighs, tau of the mean, eq. H1, at the tolerances the gathers use) and
+// make_operator fits the links' slopes to them. 16-bit codes held 12 bytes more a link for the
+// same images (the mirror cube, cornell-box, cornell-glossy and the room at tau 0.05 and 0.07:
+// relative RMSE the same to four digits, links within 0.6 percent). At tight tolerances the
+// codes' steps ask for some splits more (cornell-box: 2 percent more links at tau 0.02, 12 at
+// 0.005), each time with a lower peak and the same image error.
 struct KeptLink {
   std::int32_t a = 0, b = 0;
   float m = 0.0f;

@@ -11,10 +11,10 @@
 //            reaches, about 0.4 x samples for a mirror and 1.1 x samples for a lobe, at most
 //            twice the partners)
 //            a hierarchy: 260 bytes a visible root pair at link tolerance 0.05 and two
-//            refinement passes, scaled by (0.05 / tau)^0.6 above 0.05 (0.2 times, the least,
-//            from tau 0.73), (0.05 / tau)^0.8 down to 0.02 and then by (0.02 / tau)^1.5 (at
-//            most 64 times); by 0.4 with no pass after the first and 0.8 with one; with lobes
-//            the transfer on its roots and the root links' rows 35 bytes an entry
+//            refinement passes, scaled by (0.05 / tau)^0.6 above 0.05, (0.05 / tau)^0.8 down
+//            to 0.02 and then by (0.02 / tau)^1.5, by 0.4 with no pass after the first and 0.8
+//            with one, and the product kept within 0.2 and 64 times; with lobes the transfer
+//            on its roots and the root links' rows 35 bytes an entry
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
 //            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
