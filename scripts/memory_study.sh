@@ -92,13 +92,15 @@ import json, sys
 out = sys.argv[1]
 mib = 2.0**20
 lines = ["| run | estimate (MiB) | peak (MiB) | ratio |", "|---|---|---|---|"]
-csv = ["run,estimate_bytes,peak_bytes,ratio"]
+csv = ["run,estimate_bytes,peak_bytes,ratio,system_bytes,camera_bytes"]
 for row in open(f"{out}/runs.tsv"):
     n, label = row.rstrip("\n").split("\t")
     r = json.load(open(f"{out}/{n}.json"))
     est, peak = r["system"]["estimated_memory_bytes"], r["peak_memory_bytes"]
     lines.append(f"| {label} | {est / mib:,.0f} | {peak / mib:,.0f} | {est / peak:.2f} |")
-    csv.append(f"\"{label}\",{est:.0f},{peak:.0f},{est / peak:.4f}")
+    part = r["system"]["estimated_memory"]
+    csv.append(f"\"{label}\",{est:.0f},{peak:.0f},{est / peak:.4f},"
+               f"{part['system_bytes']:.0f},{part['camera_bytes']:.0f}")
 machine = r["machine"]
 lines.append("")
 lines.append(f"{machine}; load before the last run: {open(f'{out}/load.txt').read().strip()}")

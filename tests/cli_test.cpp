@@ -140,6 +140,12 @@ TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
     const JsonValue rep = test::read_json(report);
     const double estimate = rep.find("system")->find("estimated_memory_bytes")->number;
     const double peak = rep.find("peak_memory_bytes")->number;
+    const JsonValue* parts = rep.find("system")->find("estimated_memory");
+    ASSERT_NE(parts, nullptr) << args;
+    double sum = 0.0;
+    for (const char* part : {"base_bytes", "world_bytes", "system_bytes", "camera_bytes"})
+      sum += parts->find(part)->number;
+    EXPECT_NEAR(sum, estimate, 1e-9 * estimate) << args;
     EXPECT_LT(estimate, 1.5 * peak) << args;
     EXPECT_GT(estimate, peak / 1.5) << args;
     RecordProperty(args.substr(7, 40), std::to_string(estimate / peak));

@@ -52,7 +52,7 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
         std::min(columns, static_cast<double>(series_batch(series, unknowns, columns)));
     m.system = static_cast<double>(sys.hierarchy->op()->nodes()) * 2.0 * 3.0 * 8.0 * batch;
   }
-  sys.estimated_memory_bytes = std::max(sys.estimated_memory_bytes, m.total());
+  if (m.total() > sys.estimated_memory.total()) sys.estimated_memory = m;
   require_memory(m, memory_budget(max_memory_bytes), w.scene().file);
 }
 

@@ -216,7 +216,17 @@ void write_json(JsonWriter& w, std::string_view key, const SystemSummary& s) {
       .value("max_albedo", s.max_albedo)
       .end_object();
   write_lobe_checks(w, s.lobes);
-  w.value("estimated_memory_bytes", s.estimated_memory_bytes);
+  // The total, and its parts (memory_estimate.h) to tell which one a peak outgrew.
+  const MemoryEstimate& m = s.estimated_memory;
+  w.value("estimated_memory_bytes", m.total());
+  w.begin_object("estimated_memory")
+      .value("base_bytes", m.base)
+      .value("world_bytes", m.world)
+      .value("system_bytes", m.system)
+      .value("camera_bytes", m.camera)
+      .value("patches", m.patches)
+      .value("visible_pairs", m.visible_pairs)
+      .end_object();
   w.end_object();
 }
 

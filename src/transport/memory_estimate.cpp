@@ -5,8 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "polyrad/scene/scene.h"
+#include "polyrad/transport/system.h"
 #include "polyrad/util/machine.h"
 #include "polyrad/util/sampling.h"
+#include "polyrad/world/world.h"
 
 namespace polyrad {
 

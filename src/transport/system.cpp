@@ -26,7 +26,7 @@ SystemSummary RadiositySystem::summary() const {
   s.operator_bytes = transport.bytes();
   s.max_albedo = transport.max_albedo();
   s.lobes = lobes;
-  s.estimated_memory_bytes = estimated_memory_bytes;
+  s.estimated_memory = estimated_memory;
   if (hierarchy) {
     s.mesh = MeshKind::kHierarchical;
     HierarchySummary h;
@@ -105,7 +105,7 @@ std::unique_ptr<RadiositySystem> build_system(std::shared_ptr<const World> world
   const MemoryEstimate need = estimate_memory(*world, options);
   require_memory(need, memory_budget(options.max_memory_bytes), world->scene().file);
   auto sys = std::make_unique<RadiositySystem>();
-  sys->estimated_memory_bytes = need.total();
+  sys->estimated_memory = need;
   sys->world = std::move(world);
   const World& w = *sys->world;
   sys->times = w.times();

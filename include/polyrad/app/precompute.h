@@ -46,7 +46,7 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
 // The precompute's memory once the system is built, from its real unknowns (patches and links,
 // or a hierarchy's leaves and links) and columns, on top of what the run holds already: throws
 // InputError with the estimate when it exceeds the budget (max_memory_bytes, or 80 percent of
-// RAM), and raises sys.estimated_memory_bytes to it.
+// RAM), and raises sys.estimated_memory to it when larger.
 void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys,
                                double max_memory_bytes);
 PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptions& options);

@@ -35,11 +35,12 @@
 
 #include <string>
 
-#include "polyrad/scene/scene.h"
-#include "polyrad/transport/system.h"
-#include "polyrad/world/world.h"
-
 namespace polyrad {
+
+// transport/system.h holds a run's estimate, so this header only names what its functions read.
+struct Scene;
+struct SystemOptions;
+class World;
 
 struct MemoryEstimate {
   double patches = 0.0;        // count: the uniform mesh's (a hierarchy's roots)

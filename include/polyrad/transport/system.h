@@ -23,6 +23,7 @@
 #include "polyrad/transport/form_factors.h"
 #include "polyrad/transport/hierarchy.h"
 #include "polyrad/transport/lobe_resolution.h"
+#include "polyrad/transport/memory_estimate.h"
 #include "polyrad/transport/specular_transfer.h"
 #include "polyrad/transport/transport.h"
 #include "polyrad/util/timer.h"
@@ -82,9 +83,9 @@ struct SystemSummary {
   std::size_t operator_bytes = 0;
   double max_albedo = 0.0;
   std::vector<LobeResolution> lobes;
-  // What build_system estimated the run would hold at its peak, the camera's share included
-  // (transport/memory_estimate.h): beside the report's measured peak.
-  double estimated_memory_bytes = 0.0;
+  // What build_system estimated the run would hold at its peak, by part, the camera's share
+  // included (transport/memory_estimate.h): beside the report's measured peak.
+  MemoryEstimate estimated_memory;
 };
 
 struct RadiositySystem {
@@ -99,7 +100,7 @@ struct RadiositySystem {
   // unknowns (the transport's layout holds it too).
   std::shared_ptr<const ElementHierarchy> hierarchy;
   StageTimes times;  // the world's (mesh, ray caster), then each stage of the system
-  double estimated_memory_bytes = 0.0;  // as checked before the build (memory_estimate.h)
+  MemoryEstimate estimated_memory;  // as checked before the build (memory_estimate.h)
 
   const Scene& scene() const { return world->scene(); }
   const PatchSet& patches() const { return world->patches(); }
