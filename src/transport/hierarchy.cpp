@@ -31,19 +31,17 @@ struct ElementLink {
   float fmax_a = 0.0f, fmax_b = 0.0f;
 };
 
-// A link as the builder holds it between passes: each side's point values as 8-bit codes of
-// the square root of their fraction of a scale (the partly hidden pair's F_max, else the largest
-// value), so 32 bytes where an ElementLink takes 64; the links are the build's largest array,
-// held beside the operator through each solve between passes (14 MB on the mirror cube at tau
-// 0.05). A value comes back within 0.4 percent of its side's scale, and a small one within about
-// 1.2 percent of itself at a tenth of the scale, 4 percent at a hundredth (a heavily shadowed
-// point of a partly hidden pair, whose scale is the unshadowed F_max). The oracle judges by them
-// (below the spread it weighs, tau of the mean, eq. H1, at the tolerances the gathers use) and
-// make_operator fits the links' slopes to them. 16-bit codes held 12 bytes more a link for the
-// same images (the mirror cube, cornell-box, cornell-glossy and the room at tau 0.05 and 0.07:
-// relative RMSE the same to four digits, links within 0.6 percent). At tight tolerances the
-// codes' steps ask for some splits more (cornell-box: 2 percent more links at tau 0.02, 12 at
-// 0.005), each time with a lower peak and the same image error.
+// A link as the builder holds it between passes: each side's point values as 8-bit fractions
+// of a scale (the partly hidden pair's F_max, else the largest value), so 32 bytes where an
+// ElementLink takes 64; the links are the build's largest array, held beside the operator
+// through each solve between passes (14 MB on the mirror cube at tau 0.05). A value comes back
+// within 0.2 percent of its side's scale: below the spread the oracle weighs (tau of the mean,
+// eq. H1) at the tolerances the gathers use. make_operator fits the links' slopes to them too.
+// 16-bit fractions held 12 bytes more a link for the same images (the mirror cube, cornell-box
+// and cornell-glossy at tau 0.05 and 0.07: relative RMSE the same to four digits, links within
+// 0.15 percent). At tight tolerances the coarser steps ask for some splits more (cornell-box: 1
+// percent more links at tau 0.02, 4 at 0.005; codes of the square root, finer for small values
+// and coarser near the scale, asked for 2 and 12), with lower peaks and the same image error.
 struct KeptLink {
   std::int32_t a = 0, b = 0;
   float m = 0.0f;
@@ -74,8 +72,8 @@ struct KeptLink {
     l.fmax_a = partial ? scale_a : 0.0f;
     l.fmax_b = partial ? scale_b : 0.0f;
     for (int k = 0; k < kOraclePoints; ++k) {
-      l.fa[k] = static_cast<float>(decode(qa[k]) * scale_a);
-      l.fb[k] = static_cast<float>(decode(qb[k]) * scale_b);
+      l.fa[k] = static_cast<float>(qa[k] * (static_cast<double>(scale_a) / kFull));
+      l.fb[k] = static_cast<float>(qb[k] * (static_cast<double>(scale_b) / kFull));
     }
     return l;
   }
@@ -87,7 +85,6 @@ struct KeptLink {
 
  private:
   static constexpr double kFull = 255.0;
-  static double decode(std::uint8_t q) { return (q / kFull) * (q / kFull); }
   // A side whose values are not finite keeps none (each value then reads 0).
   static float scale_of(float largest) { return std::isfinite(largest) ? largest : 0.0f; }
   static void quantize(const std::array<float, kOraclePoints>& f, float scale,
@@ -96,7 +93,7 @@ struct KeptLink {
       const double x = scale > 0.0f && std::isfinite(f[k])
                            ? std::clamp(f[k] / static_cast<double>(scale), 0.0, 1.0)
                            : 0.0;
-      q[k] = static_cast<std::uint8_t>(std::lround(std::sqrt(x) * kFull));
+      q[k] = static_cast<std::uint8_t>(std::lround(x * kFull));
     }
   }
 };

@@ -74,7 +74,7 @@
 // each link one pair form factor (eq. 4, as the uniform mesh; with open_link_rays shadow rays
 // per point where the oracle saw no shadow below the roots). Memory: about 420 bytes per
 // element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 32
-// per link between passes (its oracle values in 8-bit codes), 12 once built and 48 in T (both
+// per link between passes (its oracle values in 8-bit fractions), 12 once built and 48 in T (both
 // directions, five floats and an index each); one application reads every link twice and each tree
 // three times. Lobes add the uniform mesh's transfer on the roots (2 x samples rays per facing pair
 // into a reflector), 8 bytes per entry of a root link's row and 4 per element link entry of the
