@@ -42,6 +42,16 @@ Material Material::phong(std::string name, Rgb diffuse, Rgb specular, double exp
   return m;
 }
 
+const Material* brightest_material(const std::vector<Material>& materials) {
+  const Material* best = nullptr;
+  for (const Material& m : materials) {
+    const bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
+    if (reflects && m.albedo_bound().maxCoeff() > (best ? best->albedo_bound().maxCoeff() : 0.0))
+      best = &m;
+  }
+  return best;
+}
+
 Frame Frame::from_normal(const Vec3& n) {
   // Orthonormal basis (Duff et al. 2017): one formula whose sign switches at n.z = 0, accurate
   // for every unit normal including n = -z.

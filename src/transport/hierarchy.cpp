@@ -1243,13 +1243,9 @@ TransportOperator hierarchical_transport(std::shared_ptr<const ElementHierarchy>
     t.layout_.flux_weight.insert(t.layout_.flux_weight.end(), sp->flux_weight.begin(),
                                  sp->flux_weight.end());
   }
-  // a_max as the uniform operator takes it: the largest albedo bound of a reflecting material.
-  for (const auto& m : materials) {
-    const bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
-    if (reflects && m.albedo_bound().maxCoeff() > t.max_albedo_) {
-      t.max_albedo_ = m.albedo_bound().maxCoeff();
-      t.brightest_material_ = m.name;
-    }
+  if (const Material* m = brightest_material(materials)) {  // a_max
+    t.max_albedo_ = m->albedo_bound().maxCoeff();
+    t.brightest_material_ = m->name;
   }
   t.weights_.cols = t.size();
   return t;

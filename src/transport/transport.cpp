@@ -135,12 +135,9 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
   const auto n = static_cast<PatchId>(patches.size());
   t.layout_.num_patches = n;
   for (const auto& p : patches.patches) t.patch_emission_.push_back(p.emission);
-  for (const auto& m : materials) {
-    bool reflects = m.diffuse.maxCoeff() > 0.0 || m.has_lobe();
-    if (reflects && m.albedo_bound().maxCoeff() > t.max_albedo_) {
-      t.max_albedo_ = m.albedo_bound().maxCoeff();
-      t.brightest_material_ = m.name;
-    }
+  if (const Material* m = brightest_material(materials)) {  // a_max
+    t.max_albedo_ = m->albedo_bound().maxCoeff();
+    t.brightest_material_ = m->name;
   }
 
   auto& links = t.layout_.links;

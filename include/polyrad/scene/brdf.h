@@ -18,6 +18,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "polyrad/types.h"
 #include "polyrad/util/enum_names.h"
@@ -91,6 +92,10 @@ struct Material {
   // Probability with which sample() picks the lobe (by luminance of the two reflectances).
   double lobe_probability() const;
 };
+
+// The reflecting material (diffuse or with a lobe) of the largest albedo bound, the first of
+// equals; nullptr if none reflects. Its bound's largest channel is a_max, section 5's bound.
+const Material* brightest_material(const std::vector<Material>& materials);
 
 // Local frame helpers.
 struct Frame {
