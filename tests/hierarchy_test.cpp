@@ -347,7 +347,6 @@ TEST(Hierarchy, OneLevelTreeIsTheUniformSystem) {
   uniform.overrides.patch_size = 100;
   Options one = hierarchical(0.1, 1e6);
   one.overrides.patch_size = 100;
-  one.system.hierarchy.energy_guard = false;
   auto u = build(load_scene(test::scene_path("cornell-box")), uniform);
   auto h = build(load_scene(test::scene_path("cornell-box")), one);
   ASSERT_EQ(h->hierarchy->num_leaves(), static_cast<int>(u->patches().size()));
@@ -722,7 +721,6 @@ TEST(Hierarchy, OneLevelTreeIsTheUniformSystemWithLobes) {
     uniform.overrides.patch_size = 100;
     Options one = hierarchical(0.1, 1e6);
     one.overrides.patch_size = 100;
-    one.system.hierarchy.energy_guard = false;
     auto u = build(load_scene(test::scene_path(scene)), uniform);
     auto h = build(load_scene(test::scene_path(scene)), one);
     ASSERT_EQ(h->hierarchy->num_leaves(), static_cast<int>(u->patches().size())) << scene;

@@ -299,45 +299,60 @@ void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
 }
 
 std::vector<double> HierarchicalOperator::column_sums(bool with_guard, bool reflectance) const {
-  // The flux a unit of flux at leaf l sends along link r <- s, s above l (l included), is
-  // rho_r (F_sr + g_sr . (y_l - y_s)) with g_sr = (A'_s / A'_r) c_rs: per node s, the sums
-  // K_s = sum rho_r A'_r F_rs / A'_s and their slopes, then for each leaf the chain of its nodes.
   // A reflector's receiving nodes count d + s sum_k R_jik per source root j (eq. H3 (b)).
-  const auto n = static_cast<std::int32_t>(nodes());
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   std::vector<std::int64_t> reflector_of(trees, -1);
   if (specular_)
     for (std::int64_t x = 0; x < static_cast<std::int64_t>(specular_->reflector.size()); ++x)
       reflector_of[specular_->reflector[x]] = x;
+  const std::vector<Eigen::Array3d> rho = tree_reflectance();
+  std::vector<double> sums = column_sums_by([&](std::int32_t t, std::int64_t entry) {
+    if (!reflectance) return Eigen::Array3d(Eigen::Array3d::Ones());
+    const std::int64_t x = reflector_of[t];
+    if (x < 0) return rho[t];
+    const std::int64_t q =
+        specular_->entry_pair[specular_->entry_start[x] + entry - links_.start[tree_start_[t]]];
+    if (q < 0) return rho[t];
+    return Eigen::Array3d(rho[t] + specular_->colour[specular_->link_start[t]].cast<double>() *
+                                       specular_->pair_reflected[specular_->pair_start[x] + q]);
+  });
+  if (with_guard)
+    for (std::size_t l = 0; l < sums.size(); ++l) sums[l] *= guard_[l];
+  return sums;
+}
+
+std::vector<Eigen::Array3d> HierarchicalOperator::tree_reflectance() const {
+  // A tree is one patch, one material: the reflectance of any of its leaves.
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  std::vector<Eigen::Array3d> rho(trees, Eigen::Array3d::Zero());
+  for (std::int32_t t = 0; t < trees; ++t)
+    for (std::int32_t m = tree_start_[t]; m < tree_start_[t + 1]; ++m)
+      if (node_leaf_[m] >= 0) {
+        rho[t] = rho_[node_leaf_[m]].cast<double>();
+        break;
+      }
+  return rho;
+}
+
+std::vector<double> HierarchicalOperator::column_sums_by(
+    const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo) const {
+  // The flux a unit of flux at leaf l sends along link r <- s, s above l (l included), is
+  // rho_r (F_sr + g_sr . (y_l - y_s)) with g_sr = (A'_s / A'_r) c_rs: per node s, the sums
+  // K_s = sum rho_r A'_r F_rs / A'_s and their slopes, then for each leaf the chain of its nodes.
+  const auto n = static_cast<std::int32_t>(nodes());
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   std::vector<Eigen::Array3d> k(n, Eigen::Array3d::Zero()), ku(n, Eigen::Array3d::Zero()),
       kv(n, Eigen::Array3d::Zero());
   for (std::int32_t t = 0; t < trees; ++t) {
-    const std::int32_t first = tree_start_[t], last = tree_start_[t + 1];
-    // The reflectance of the tree: a tree is one patch, one material, so that of any leaf.
-    const std::int64_t x = reflector_of[t];
-    Eigen::Array3d rho = Eigen::Array3d::Ones(), lobe = Eigen::Array3d::Zero();
-    if (reflectance) {
-      for (std::int32_t m = first; m < last; ++m)
-        if (node_leaf_[m] >= 0) {
-          rho = rho_[node_leaf_[m]].cast<double>();
-          break;
-        }
-      if (x >= 0) lobe = specular_->colour[specular_->link_start[t]].cast<double>();
-    }
-    for (std::int32_t r = first; r < last; ++r) {
+    for (std::int32_t r = tree_start_[t]; r < tree_start_[t + 1]; ++r) {
       for (auto e = links_.start[r]; e < links_.start[r + 1]; ++e) {
         const std::int32_t s = links_.column[e];
         if (!(exposed_[s] > 0.0)) continue;
-        Eigen::Array3d albedo = rho;
-        if (reflectance && x >= 0) {
-          const std::int64_t q = specular_->entry_pair[specular_->entry_start[x] + e -
-                                                       links_.start[first]];
-          if (q >= 0) albedo += lobe * specular_->pair_reflected[specular_->pair_start[x] + q];
-        }
+        const Eigen::Array3d a = albedo(t, e);
         const double w = exposed_[r] / exposed_[s];
-        k[s] += albedo * (w * links_.value[e][0]);
-        ku[s] += albedo * (w * links_.value[e][3]);
-        kv[s] += albedo * (w * links_.value[e][4]);
+        k[s] += a * (w * links_.value[e][0]);
+        ku[s] += a * (w * links_.value[e][3]);
+        kv[s] += a * (w * links_.value[e][4]);
       }
     }
   }
@@ -348,7 +363,7 @@ std::vector<double> HierarchicalOperator::column_sums(bool with_guard, bool refl
     for (std::int32_t s = leaf; s >= 0; s = parent_[s])
       sum += k[s] + ku[s] * (centroid_[leaf][0] - centroid_[s][0]) +
              kv[s] * (centroid_[leaf][1] - centroid_[s][1]);
-    sums[l] = sum.maxCoeff() * (with_guard ? guard_[l] : 1.0);
+    sums[l] = sum.maxCoeff();
   }
   return sums;
 }

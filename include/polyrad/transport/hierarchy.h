@@ -48,12 +48,14 @@
 // together where the kernel they make could go negative on the pair, so T is non-negative, and
 // a linear function's area mean over the children is its value at their area centroids, so each
 // link delivers exactly its etendue's flux: in flux form (weights pi A'_l) the column of leaf l
-// sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). c_l, the energy
-// guard, scales the leaves where those form factors would sum above 1 (near contacts, where the
-// linear functions are too coarse) to 1, so every column of T sums to at most a_max: section 5's
-// bound, the Jacobi = series identity and the precompute hold unchanged. What it takes it gives
-// back to the other leaves of the same tree (c_l > 1 where the sum is below 1, never above it),
-// so each tree shoots the flux its links' etendues carry.
+// sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). Near contacts, where
+// the linear functions are too coarse, those form factors sum above 1; c_l, the energy guard,
+// scales the leaves whose column (each receiver weighed by its albedo bound, d + s) would then
+// exceed a_max down to it, so every column of T sums to at most a_max: section 5's bound, the
+// Jacobi = series identity and the precompute hold unchanged. What it takes it gives back to the
+// other leaves of the same tree (c_l > 1 where the column is below a_max, never above it), so
+// each tree shoots the flux its links' etendues carry. It acts on no more leaves than the bound
+// needs: a tree of one level, unguarded where the uniform mesh keeps the bound, is that mesh.
 //
 // Lobes (eq. H3, RootSpecular below): mirror, glossy and Phong light moves on link unknowns
 // S_{i->k} between ROOTS, with the uniform mesh's transfer computed on the roots (once, after
@@ -195,8 +197,8 @@ struct HierarchyStats {
   long long root_pairs_facing = 0;
   long long oracle_rays = 0, form_factor_rays = 0, exposure_rays = 0;
   std::vector<HierarchyPass> passes;
-  // The energy guard: how far the flux-form column sums of T exceeded a_max before it, and on
-  // how many leaves it acted.
+  // The energy guard: how far the leaves' columns it bounds exceeded a_max before it (a fraction
+  // of a_max), and on how many leaves it acted.
   double guard_max_excess = 0.0;
   long long guard_leaves = 0;
   // The specular part (eq. H3): the root form factors' and the transfer's seconds, the
@@ -278,9 +280,15 @@ class HierarchicalOperator {
   // pushes, reflects and pulls again; then the reflectors' link rows in order.
   void gauss_seidel_sweep(const Field& e, Field& u) const;
   // Flux-form column sums of T per leaf, the largest channel's (with reflectance = false, the
-  // form factors' alone: what the guard holds to 1), with or without the guard. A reflector's
-  // receivers count d + s sum_k R_jik.
+  // form factors' alone), with or without the guard. A reflector's receivers count
+  // d + s sum_k R_jik.
   std::vector<double> column_sums(bool with_guard, bool reflectance = true) const;
+  // The same without the guard, each link entry r <- s (tree t, entry e of the link rows)
+  // weighed by albedo(t, e): what the guard bounds (a bound of every channel's reflectance).
+  std::vector<double> column_sums_by(
+      const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo) const;
+  // The diffuse reflectance of each tree's leaves, as T applies it.
+  std::vector<Eigen::Array3d> tree_reflectance() const;
   std::size_t bytes() const;
 
  private:
