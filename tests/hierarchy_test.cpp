@@ -117,10 +117,11 @@ TEST(Hierarchy, ClosedRoomRootRowsSumToOne) {
   }
 }
 
-// With the energy guard (the default) the leaves whose form factors sum above 1 are scaled down,
-// and what they lose goes to the other leaves of their tree: each root of a closed room still
-// sends out all its flux, where scaling alone lost up to 1 percent of it. Checked on T: the flux
-// T delivers from a root's leaves, each lit with its share of a unit of flux.
+// With the energy guard (the default) the leaves whose columns pass a_max are scaled down (in a
+// grey box, those whose form factors sum above 1), and what they lose goes to the other leaves
+// of their tree: each root of a closed room still sends out all its flux, where scaling alone
+// lost up to 1 percent of it. Checked on T: the flux T delivers from a root's leaves, each lit
+// with its share of a unit of flux.
 TEST(Hierarchy, ClosedRoomRootsSendAllTheirFluxWithTheGuard) {
   const double a = 0.5;
   const std::string json = test::closed_box_json(Vec3(1, 0.8, 1.3), 0.5, grey(a), 1.0);

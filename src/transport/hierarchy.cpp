@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <span>
 
 #include "polyrad/util/error.h"
@@ -205,36 +206,37 @@ LinearFit fit_linear(const Element& r, const std::array<float, kOraclePoints>& f
   return fit;
 }
 
-// The energy guard's factors c_k for one tree's leaves, of exposed areas A'_k and columns s_k
-// (in units of a_max): c_k = min(w, 1 / s_k), so that no column passes a_max (c_k s_k <= 1),
-// with the water level w >= 1 that keeps the tree's flux sum_k A'_k c_k s_k at sum_k A'_k s_k,
-// or as near as the leaves' room (sum_k A'_k over the leaves that shoot) allows. By bisection.
-std::vector<double> guard_weights(const std::vector<double>& area, const std::vector<double>& sum) {
+// The energy guard's factors c_k for one tree's leaves, of exposed areas A'_k, form-factor sums
+// s_k and caps u_k: c_k = min(w, u_k), with the water level w >= 1 that keeps the tree's flux
+// sum_k A'_k c_k s_k at sum_k A'_k s_k (the links' etendues), or as near as the caps allow.
+// By bisection.
+std::vector<double> guard_weights(const std::vector<double>& area, const std::vector<double>& sum,
+                                  const std::vector<double>& cap) {
   double flux = 0.0, room = 0.0;
   for (std::size_t k = 0; k < area.size(); ++k) {
     flux += area[k] * sum[k];
-    if (sum[k] > 0.0) room += area[k];
+    room += area[k] * cap[k] * sum[k];
   }
   const auto shot = [&](double w) {
     double f = 0.0;
-    for (std::size_t k = 0; k < area.size(); ++k) f += area[k] * std::min(w * sum[k], 1.0);
+    for (std::size_t k = 0; k < area.size(); ++k) f += area[k] * std::min(w, cap[k]) * sum[k];
     return f;
   };
   double w = 1.0;
   if (shot(1.0) < flux) {
-    double lo = 1.0, hi = 2.0;
-    while (shot(hi) < flux && hi < 1e6) hi *= 2.0;
-    if (flux >= room) {
-      w = hi;  // no water level keeps it: every leaf shoots its whole flux
+    if (!(flux < room)) {
+      w = std::numeric_limits<double>::infinity();  // no water level keeps it: every leaf at its
+                                                    // cap
     } else {
+      double lo = 1.0, hi = 2.0;
+      while (shot(hi) < flux && hi < 1e6) hi *= 2.0;
       for (int step = 0; step < 60; ++step)
         (shot(0.5 * (lo + hi)) < flux ? lo : hi) = 0.5 * (lo + hi);
       w = hi;
     }
   }
-  std::vector<double> c(area.size(), 1.0);
-  for (std::size_t k = 0; k < area.size(); ++k)
-    if (sum[k] > 0.0) c[k] = std::min(w, 1.0 / sum[k]);
+  std::vector<double> c(area.size());
+  for (std::size_t k = 0; k < area.size(); ++k) c[k] = std::min(w, cap[k]);
   return c;
 }
 
@@ -903,8 +905,8 @@ void HierarchyBuilder::make_operator() {
   // a tree with no room to take it back. Held to 1 by the form factors alone, the guard scaled
   // 39,386 of the room's 87,965 leaves (now 158) and its trees of one level were not the uniform
   // mesh: the room at 60 cm, unrefined, 0.4 to 0.7 percent darker (now the same image). What it
-  // takes is given back to the tree's other leaves up to the bound (guard_weights): scaling
-  // alone lost up to 1 percent of a closed box's rows.
+  // takes is given back to the tree's leaves whose form factors sum below 1, up to their own flux
+  // and the bound (guard_weights): scaling alone lost up to 1 percent of a closed box's rows.
   op->guard_.assign(op->leaf_node_.size(), 1.0f);
   {
     const Material* brightest = brightest_material(materials_);
@@ -925,16 +927,22 @@ void HierarchyBuilder::make_operator() {
         ++h_.stats_.guard_leaves;
       }
     if (o_.energy_guard && a_max > 0.0) {
+      const std::vector<double> ff = op->column_sums(false, false);
       std::vector<std::vector<std::int32_t>> tree_leaves(roots_.size());
       for (std::size_t l = 0; l < sums.size(); ++l)
         tree_leaves[el_[h_.leaf_element_[l]].root].push_back(static_cast<std::int32_t>(l));
       for (const auto& leaves : tree_leaves) {
-        std::vector<double> area(leaves.size()), sum(leaves.size());
+        // Caps: the bound, and no more than the leaf's own flux where its form factors sum
+        // below 1, so what is given back goes where the form factors are short of it.
+        std::vector<double> area(leaves.size()), sum(leaves.size()), cap(leaves.size());
         for (std::size_t k = 0; k < leaves.size(); ++k) {
-          area[k] = el_[h_.leaf_element_[leaves[k]]].exposed;
-          sum[k] = sums[leaves[k]] / a_max;
+          const std::int32_t l = leaves[k];
+          area[k] = el_[h_.leaf_element_[l]].exposed;
+          sum[k] = ff[l];
+          cap[k] = std::max(1.0, ff[l] > 0.0 ? 1.0 / ff[l] : 1.0);
+          if (sums[l] > 0.0) cap[k] = std::min(cap[k], a_max / sums[l]);
         }
-        const std::vector<double> c = guard_weights(area, sum);
+        const std::vector<double> c = guard_weights(area, sum, cap);
         for (std::size_t k = 0; k < leaves.size(); ++k) {
           float& g = op->guard_[leaves[k]];
           g = static_cast<float>(c[k]);

@@ -53,8 +53,8 @@
 // scales the leaves whose column (each receiver weighed by its albedo bound, d + s) would then
 // exceed a_max down to it, so every column of T sums to at most a_max: section 5's bound, the
 // Jacobi = series identity and the precompute hold unchanged. What it takes it gives back to the
-// other leaves of the same tree (c_l > 1 where the column is below a_max, never above it), so
-// each tree shoots the flux its links' etendues carry. It acts on no more leaves than the bound
+// other leaves of the same tree whose form factors sum below 1 (c_l > 1, up to their own flux
+// and the bound), so each tree shoots the flux its links' etendues carry. It acts on no more leaves than the bound
 // needs: a tree of one level, unguarded where the uniform mesh keeps the bound, is that mesh.
 //
 // Lobes (eq. H3, RootSpecular below): mirror, glossy and Phong light moves on link unknowns
