@@ -239,9 +239,19 @@ TEST(Hierarchy, ColumnSumsInFluxFormStayWithinTheLargestAlbedo) {
   const auto& t = sys->transport;
   const HierarchicalOperator& op = *t.hierarchy();
   const std::vector<double> guarded = op.column_sums(true), raw = op.column_sums(false, false);
+  const std::vector<double> unguarded = op.column_sums(false);
   const double a_max = t.max_albedo();
   EXPECT_GT(*std::max_element(raw.begin(), raw.end()), 1.0);  // the guard had work to do
   EXPECT_GT(sys->hierarchy->stats().guard_leaves, 0);
+  // ... and no more than the bound asks: a leaf whose column is within a_max is not scaled down,
+  // though its form factors may sum above 1 (toward receivers darker than a_max).
+  int kept_over_one = 0;
+  for (std::size_t l = 0; l < guarded.size(); ++l) {
+    if (!(unguarded[l] > 0.0) || unguarded[l] > a_max) continue;
+    EXPECT_GE(guarded[l], unguarded[l]) << "leaf " << l;
+    kept_over_one += raw[l] > 1.0;
+  }
+  EXPECT_GT(kept_over_one, 0);
   std::vector<int> order(guarded.size());
   std::iota(order.begin(), order.end(), 0);
   std::partial_sort(order.begin(), order.begin() + 40, order.end(),
