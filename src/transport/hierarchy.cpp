@@ -225,8 +225,8 @@ std::vector<double> guard_weights(const std::vector<double>& area, const std::ve
   double w = 1.0;
   if (shot(1.0) < flux) {
     if (!(flux < room)) {
-      w = std::numeric_limits<double>::infinity();  // no water level keeps it: every leaf at its
-                                                    // cap
+      // No water level keeps it: every leaf at its cap.
+      w = std::numeric_limits<double>::infinity();
     } else {
       double lo = 1.0, hi = 2.0;
       while (shot(hi) < flux && hi < 1e6) hi *= 2.0;
