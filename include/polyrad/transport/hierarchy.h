@@ -54,8 +54,9 @@
 // exceed a_max down to it, so every column of T sums to at most a_max: section 5's bound, the
 // Jacobi = series identity and the precompute hold unchanged. What it takes it gives back to the
 // other leaves of the same tree whose form factors sum below 1 (c_l > 1, up to their own flux
-// and the bound), so each tree shoots the flux its links' etendues carry. It acts on no more leaves than the bound
-// needs: a tree of one level, unguarded where the uniform mesh keeps the bound, is that mesh.
+// and the bound), so each tree shoots the flux its links' etendues carry. It scales no leaf
+// whose column is within the bound, so a tree of one level, where the uniform mesh keeps the
+// bound, is that mesh.
 //
 // Lobes (eq. H3, RootSpecular below): mirror, glossy and Phong light moves on link unknowns
 // S_{i->k} between ROOTS, with the uniform mesh's transfer computed on the roots (once, after
@@ -226,8 +227,9 @@ struct HierarchyStats {
 //       (with leaves constant over j, I_ij = F_ij B_j and this is eq. 7).
 // Why it keeps section 5's bound: each unit of flux that reaches reflector i along a link is
 // split into d_i (its leaves' diffuse rows, eq. H2) and s_i sum_k R_jik <= s_i (its links), so a
-// leaf's column is the guarded form factors from its place, each weighed by its receiver's
-// d + s sum_k R <= a_max; a link's column is d_k + s_k sum R <= a_max likewise.
+// leaf's column is the form factors from its place, each weighed by its receiver's
+// d + s sum_k R <= d + s, a sum the guard holds to a_max; a link's column is d_k + s_k sum R <=
+// a_max likewise.
 struct RootSpecular {
   // The link unknowns (unknown leaves + l), sorted by (from, to) over root ids; the links of
   // root i are [link_start[i], link_start[i + 1]).
