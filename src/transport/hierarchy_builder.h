@@ -1,0 +1,241 @@
+// The builder of an element hierarchy (hierarchy.h), internal to it: the links as the oracle
+// measures and keeps them between passes, and the HierarchyBuilder whose passes grow the trees,
+// link them and lay out the operator. Implemented in hierarchy.cpp.
+// Not installed: the public interface is include/polyrad/transport/hierarchy.h.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "polyrad/transport/hierarchy.h"
+
+namespace polyrad {
+
+// What the oracle's visibility rays found between the two elements of a link.
+enum class LinkVisibility : std::uint8_t { kUntested, kVisible, kPartial, kHidden };
+
+// A link while the hierarchy is built (LinkedPair, with what the oracle measured on it).
+struct ElementLink {
+  std::int32_t a = 0, b = 0;
+  float m = 0.0f;
+  // The oracle's unoccluded point form factors (eq. 5) from a's sample points to b (fa) and
+  // from b's to a (fb): the corners pulled 1 percent toward the centre (on a corner that lies
+  // in the other's plane the kernel jumps), then the centre; a triangle repeats its centre.
+  std::array<float, kOraclePoints> fa{}, fb{};
+  LinkVisibility visibility = LinkVisibility::kUntested;
+  // A partly hidden pair's largest unoccluded point values (fa, fb are then weighed by each
+  // point's visible fraction).
+  float fmax_a = 0.0f, fmax_b = 0.0f;
+};
+
+// A link as the builder holds it between passes: each side's point values as 8-bit fractions
+// of a scale (the partly hidden pair's F_max, else the largest value), so 32 bytes where an
+// ElementLink takes 64; the links are the build's largest array, held beside the operator
+// through each solve between passes (14 MB on the mirror cube at tau 0.05). A value comes back
+// within 0.2 percent of its side's scale: below the spread the oracle weighs (tau of the mean,
+// eq. H1) at the tolerances the gathers use. make_operator fits the links' slopes to them too.
+// 16-bit fractions held 12 bytes more a link for the same images (the mirror cube, cornell-box
+// and cornell-glossy at tau 0.05 and 0.07: relative RMSE the same to four digits, links within
+// 0.15 percent). At tight tolerances the coarser steps ask for some splits more (cornell-box: 1
+// percent more links at tau 0.02, 4 at 0.005; codes of the square root, finer for small values
+// and coarser near the scale, asked for 2 and 12), with lower peaks and the same image error.
+struct KeptLink {
+  std::int32_t a = 0, b = 0;
+  float m = 0.0f;
+  float scale_a = 0.0f, scale_b = 0.0f;
+  LinkVisibility visibility = LinkVisibility::kUntested;
+  std::array<std::uint8_t, kOraclePoints> qa{}, qb{};
+
+  static KeptLink keep(const ElementLink& l) {
+    KeptLink k;
+    k.a = l.a;
+    k.b = l.b;
+    k.m = l.m;
+    k.visibility = l.visibility;
+    const bool partial = l.visibility == LinkVisibility::kPartial;
+    k.scale_a = scale_of(partial ? l.fmax_a : *std::max_element(l.fa.begin(), l.fa.end()));
+    k.scale_b = scale_of(partial ? l.fmax_b : *std::max_element(l.fb.begin(), l.fb.end()));
+    quantize(l.fa, k.scale_a, k.qa);
+    quantize(l.fb, k.scale_b, k.qb);
+    return k;
+  }
+  ElementLink expand() const {
+    ElementLink l;
+    l.a = a;
+    l.b = b;
+    l.m = m;
+    l.visibility = visibility;
+    const bool partial = visibility == LinkVisibility::kPartial;
+    l.fmax_a = partial ? scale_a : 0.0f;
+    l.fmax_b = partial ? scale_b : 0.0f;
+    for (int k = 0; k < kOraclePoints; ++k) {
+      l.fa[k] = static_cast<float>(qa[k] * (static_cast<double>(scale_a) / kFull));
+      l.fb[k] = static_cast<float>(qb[k] * (static_cast<double>(scale_b) / kFull));
+    }
+    return l;
+  }
+  void swap_ends() {
+    std::swap(a, b);
+    std::swap(scale_a, scale_b);
+    std::swap(qa, qb);
+  }
+
+ private:
+  static constexpr double kFull = 255.0;
+  // A side whose values are not finite keeps none (each value then reads 0).
+  static float scale_of(float largest) { return std::isfinite(largest) ? largest : 0.0f; }
+  static void quantize(const std::array<float, kOraclePoints>& f, float scale,
+                       std::array<std::uint8_t, kOraclePoints>& q) {
+    for (int k = 0; k < kOraclePoints; ++k) {
+      const double x = scale > 0.0f && std::isfinite(f[k])
+                           ? std::clamp(f[k] / static_cast<double>(scale), 0.0, 1.0)
+                           : 0.0;
+      q[k] = static_cast<std::uint8_t>(std::lround(x * kFull));
+    }
+  }
+};
+static_assert(sizeof(KeptLink) == 32, "a kept link is 32 bytes");
+
+namespace hierarchy_detail {
+
+inline double longest_edge(const Patch& p) {
+  double e = 0.0;
+  for (int c = 0; c < p.corners; ++c)
+    e = std::max(e, (p.corner[(c + 1) % p.corners] - p.corner[c]).norm());
+  return e;
+}
+
+}  // namespace hierarchy_detail
+
+// Builds the trees and links pass by pass (see the top of hierarchy.h).
+class HierarchyBuilder {
+ public:
+  HierarchyBuilder(const PatchSet& roots, const std::vector<Material>& materials,
+                   const RayCaster& caster, const HierarchyOptions& o, ElementHierarchy& h)
+      : roots_(roots), materials_(materials), caster_(caster), o_(o), h_(h), el_(h.elements_) {}
+
+  void run();
+
+ private:
+  enum Decision : std::int8_t { kNone, kLink, kSplitA, kSplitB };
+  struct Candidate {
+    std::int32_t a, b;
+    float m = -1.0f;  // the pair form factor when known (a link judged again after its rays)
+    // What rays found between the pair's ancestors: the parts of a wholly visible pair are
+    // taken as wholly visible too (Hanrahan et al.'s inheritance), without casting again.
+    LinkVisibility visibility = LinkVisibility::kUntested;
+  };
+  struct Outcome {
+    Decision decision = kNone;
+    ElementLink link;  // a, b, the point form factors and what the rays found
+    bool probed = false;
+    long long rays = 0;
+  };
+
+  bool splittable(std::int32_t e) const {
+    return 0.5 * hierarchy_detail::longest_edge(el_[e].shape) >=
+           min_size_[el_[e].root] * (1.0 - 1e-9);
+  }
+  // dF of eq. H1 for receiver `r` of link l (r is l.a or l.b).
+  double spread(const ElementLink& l, std::int32_t r) const;
+  // Whether link l passes eq. H1 for receiver r (r is l.a or l.b); the criteria stand with its
+  // definition.
+  bool accurate_for(const ElementLink& l, std::int32_t r) const;
+  bool accurate(const ElementLink& l) const { return accurate_for(l, l.a) && accurate_for(l, l.b); }
+  // Whether link_form_factors integrates the pair with open_link_rays shadow rays a point: below
+  // the roots, where the oracle saw no shadow.
+  bool open_rules(std::int32_t a, std::int32_t b, LinkVisibility v) const {
+    return !(el_[a].parent < 0 && el_[b].parent < 0) &&
+           (v == LinkVisibility::kVisible || v == LinkVisibility::kUntested);
+  }
+  // Which of a, b to split: the larger that may be split; -1 if neither.
+  std::int32_t split_choice(std::int32_t a, std::int32_t b) const {
+    const bool sa = splittable(a), sb = splittable(b);
+    if (sa && (!sb || el_[a].shape.area >= el_[b].shape.area)) return a;
+    return sb ? b : -1;
+  }
+  // Point form factors of a pair (false: the pair does not face).
+  bool point_form_factors(std::int32_t a, std::int32_t b, ElementLink& l) const;
+  // Element e's exposure: its fraction A'_e / A_e, with its grid where it has one.
+  PatchExposure exposure_of(std::int32_t e) const;
+  // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
+  // visible fractions.
+  LinkVisibility probe(ElementLink& l, long long* rays) const;
+  Outcome judge(const Candidate& c) const;
+  std::uint64_t pair_key(std::int32_t a, std::int32_t b) const;
+  void split(std::int32_t e);
+  void split_all(std::vector<std::int32_t>& elements, HierarchyPass& pass);
+  void refine(std::vector<Candidate> candidates, HierarchyPass& pass);
+  void link_form_factors(HierarchyPass& pass);
+  void make_operator();
+  // With lobes: the root form factors of the current links, the transfer (once, after the
+  // first pass) and the operator's specular part (eq. H3).
+  void attach_specular();
+  // The links as the hierarchy keeps them (LinkedPair), from links_, which is then freed: once,
+  // when no later pass will judge them again. Before that the hierarchy holds no copy of them
+  // (on the mirror cube, 5 MB at the build's peak).
+  void publish_links();
+  int solve(HierarchyPass& pass);
+  // S_{i->k} of the last solve (0 where there is no such link).
+  Eigen::Array3d specular_toward(PatchId i, PatchId k) const {
+    const auto first = seen_links_.begin() + seen_start_[i];
+    const auto last = seen_links_.begin() + seen_start_[i + 1];
+    const auto it =
+        std::lower_bound(first, last, k, [](const Link& x, PatchId key) { return x.to < key; });
+    return it != last && it->to == k ? seen_s_[it - seen_links_.begin()]
+                                     : Eigen::Array3d::Zero().eval();
+  }
+
+  const PatchSet& roots_;
+  const std::vector<Material>& materials_;
+  const RayCaster& caster_;
+  const HierarchyOptions& o_;
+  ElementHierarchy& h_;
+  std::vector<Element>& el_;
+  std::vector<double> min_size_;         // per root
+  std::vector<Eigen::Array3d> rho_, b_;  // per element: reflectance, current radiosity
+  // Links in chunks, each as one batch of refine judged them, never one vector regrown: on the
+  // mirror cube a regrown copy of the links beside the old one was the build's peak.
+  using LinkChunks = std::vector<std::vector<KeptLink>>;
+  LinkChunks links_;    // the links so far
+  LinkChunks pending_;  // judged to link, form factor still to compute
+  std::int64_t link_count() const {
+    // Before publish_links the hierarchy holds none of them, after it the builder none.
+    auto n = static_cast<std::int64_t>(h_.links_.size());
+    for (const auto& chunk : links_) n += static_cast<std::int64_t>(chunk.size());
+    return n;
+  }
+  // Exposure grids (exposure.h): the roots' map, then one per batch of children measured; per
+  // element, its map and index there ({-1, -1}: none, as for the children of a wholly exposed
+  // or buried parent).
+  std::vector<ExposureMap> exposure_maps_;
+  std::vector<std::array<std::int32_t, 2>> exposure_at_;
+  std::vector<std::int32_t> node_element_;  // the operator's node -> element
+  double b_ref_ = 0.0;
+  bool lobes_ = false;  // some root has a lobe and the specular links are on
+  bool transfer_done_ = false;
+  // The specular links of the last solve and their values, for the oracle (specular_toward).
+  std::vector<Link> seen_links_;
+  std::vector<std::int64_t> seen_start_;
+  std::vector<Eigen::Array3d> seen_s_;
+  // Per root, as the oracle judges a receiver: its albedo d + s (d alone without lobes), and the
+  // flux-weighted mean S of its links in the last solve.
+  std::vector<Eigen::Array3d> judged_rho_, mean_s_;
+  // Rays from each oracle point of a partly hidden pair to the other element (its visible
+  // fraction there).
+  static constexpr int kPointRays = 4;
+  // The darkest source and receiver, as a share of the mean reflected radiosity B_ref, that the
+  // oracle judges by their own radiosity: a leaf's error is bounded by about
+  // tau (B_reflected + kDarkest rho B_ref), relative where it is not darker than that.
+  static constexpr double kDarkest = 0.25;
+  // A visible link that carries this share of the tolerance on its receiver's radiosity is not
+  // worth splitting, however large its miss is against that little light (a floor far from a
+  // block sees its faces at grazing angles).
+  static constexpr double kNegligible = 0.1;
+};
+
+}  // namespace polyrad
