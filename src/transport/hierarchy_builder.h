@@ -1,6 +1,8 @@
 // The builder of an element hierarchy (hierarchy.h), internal to it: the links as the oracle
 // measures and keeps them between passes, and the HierarchyBuilder whose passes grow the trees,
-// link them and lay out the operator. Implemented in hierarchy.cpp.
+// link them and lay out the operator. Implemented in hierarchy.cpp (the trees and the passes),
+// hierarchy_refine.cpp (the oracle and the links' form factors) and hierarchy_make_operator.cpp
+// (the operator's layout, link rows and energy guard).
 // Not installed: the public interface is include/polyrad/transport/hierarchy.h.
 #pragma once
 
@@ -102,12 +104,34 @@ static_assert(sizeof(KeptLink) == 32, "a kept link is 32 bytes");
 
 namespace hierarchy_detail {
 
+// Helpers more than one of the builder's files reads.
+
 inline double longest_edge(const Patch& p) {
   double e = 0.0;
   for (int c = 0; c < p.corners; ++c)
     e = std::max(e, (p.corner[(c + 1) % p.corners] - p.corner[c]).norm());
   return e;
 }
+
+// Whether a corner of p lies in front of the plane of `plane` (by more than eps).
+inline bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) {
+  for (int c = 0; c < p.corners; ++c)
+    if ((p.corner[c] - plane.centroid).dot(plane.normal) > eps) return true;
+  return false;
+}
+
+// Whether none of e lies inside other geometry (its exposed area is all of it).
+inline bool wholly_exposed(const Element& e) { return e.exposed >= e.shape.area * (1.0 - 1e-9); }
+
+// The linear function of the root parameters that fits the point form factors f over element r
+// in least squares: its value at r's centroid, its slopes, and the most it misses a point by.
+struct LinearFit {
+  double mean = 0.0;
+  Vec2 slope = Vec2::Zero();
+  double miss = 0.0;
+};
+// (Defined in hierarchy_refine.cpp, beside the oracle's sample points it fits.)
+LinearFit fit_linear(const Element& r, const std::array<float, kOraclePoints>& f);
 
 }  // namespace hierarchy_detail
 
@@ -143,7 +167,7 @@ class HierarchyBuilder {
   // dF of eq. H1 for receiver `r` of link l (r is l.a or l.b).
   double spread(const ElementLink& l, std::int32_t r) const;
   // Whether link l passes eq. H1 for receiver r (r is l.a or l.b); the criteria stand with its
-  // definition.
+  // definition (hierarchy_refine.cpp).
   bool accurate_for(const ElementLink& l, std::int32_t r) const;
   bool accurate(const ElementLink& l) const { return accurate_for(l, l.a) && accurate_for(l, l.b); }
   // Whether link_form_factors integrates the pair with open_link_rays shadow rays a point: below
