@@ -174,7 +174,19 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
       break;
     }
   }
-  // The specular links' values, for the oracle's sources in reflectors' trees.
+  remember_specular(u);
+  pull_radiosity(u);
+  measure_b_ref(u, e, w);
+  pass.sweeps = sweeps;
+  pass.solve_seconds += t0.seconds();
+  return sweeps;
+}
+
+// The specular links' values, for the oracle's sources in reflectors' trees.
+void HierarchyBuilder::remember_specular(const Field& u) {
+  const auto leaves = static_cast<Eigen::Index>(h_.num_leaves());
+  const RootSpecular* sp = h_.op_->specular();
+  const Eigen::Index size = h_.op_->size();
   seen_links_.clear();
   seen_s_.clear();
   seen_start_.assign(roots_.size() + 1, 0);
@@ -192,7 +204,11 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
       mean_s_[i] = weight > 0.0 ? Eigen::Array3d(sum / weight) : Eigen::Array3d::Zero();
     }
   }
-  // Radiosity of every element: its leaves' area average (the pull, without the guard).
+}
+
+// Radiosity of every element: its leaves' area average (the pull, without the guard).
+void HierarchyBuilder::pull_radiosity(const Field& u) {
+  const auto leaves = static_cast<Eigen::Index>(h_.num_leaves());
   for (Eigen::Index l = 0; l < leaves; ++l) b_[h_.leaf_element_[l]] = u.row(l).transpose().array();
   for (auto k = static_cast<std::int64_t>(node_element_.size()) - 1; k >= 0; --k) {
     const Element& x = el_[node_element_[k]];
@@ -204,52 +220,72 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
     }
     b_[node_element_[k]] = sum;
   }
-  // From now on B_ref is the solution's own mean reflected radiosity (luminance, by exposed
-  // area): the first pass's estimate assumes a closed scene, and an open one loses light.
+}
+
+// From now on B_ref is the solution's own mean reflected radiosity (luminance, by exposed
+// area): the first pass's estimate assumes a closed scene, and an open one loses light.
+void HierarchyBuilder::measure_b_ref(const Field& u, const Field& e, const std::vector<double>& w) {
+  const auto leaves = static_cast<Eigen::Index>(h_.num_leaves());
   double area = 0.0, sum = 0.0;
   for (Eigen::Index l = 0; l < leaves; ++l) {
     area += w[l];
     sum += w[l] * luminance((u.row(l) - e.row(l)).transpose().array());
   }
   if (area > 0.0 && sum > 0.0) b_ref_ = h_.stats_.b_ref = sum / area;
-  pass.sweeps = sweeps;
-  pass.solve_seconds += t0.seconds();
-  return sweeps;
 }
 
 void HierarchyBuilder::run() {
   const Stopwatch t_start;
-  const auto r = static_cast<std::int32_t>(roots_.size());
-  h_.num_roots_ = r;
+  h_.num_roots_ = static_cast<std::int32_t>(roots_.size());
   h_.roots_ = &roots_;
+  make_roots();
+  first_radiosities();
+  judge_albedos();
+  first_pass();
+  for (int p = 1; p <= o_.passes; ++p)
+    if (!later_pass(p)) break;
+  if (!links_.empty()) publish_links();  // the passes ended early
+  el_.shrink_to_fit();  // the last growth's slack (split grows the arrays by a quarter)
+  h_.build_corner_averages(roots_);
+  h_.build_lookup(roots_);
+  h_.stats_.seconds = t_start.seconds();
+}
+
+// The roots, with the uniform mesh's exposed areas (form_factors.h), and the smallest size
+// their elements may be split to.
+void HierarchyBuilder::make_roots() {
+  const auto r = static_cast<std::int32_t>(roots_.size());
   HierarchyStats& st = h_.stats_;
-  // The roots, with the uniform mesh's exposed areas (form_factors.h).
-  {
-    const Stopwatch t0;
-    exposure_maps_.emplace_back(roots_, caster_, o_.form_factors.exposure_points,
-                                o_.form_factors.exposure_refined);
-    exposure_at_.resize(r);
-    for (std::int32_t p = 0; p < r; ++p) exposure_at_[p] = {0, p};
-    st.exposure_seconds += t0.seconds();
-    el_.resize(r);
-    for (std::int32_t p = 0; p < r; ++p) {
-      Element& e = el_[p];
-      e.shape = roots_[p];
-      e.root = p;
-      e.key = static_cast<std::uint64_t>(p);
-      e.exposed = exposure_maps_[0].area(p);
-      e.uv = roots_[p].is_triangle()
-                 ? std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), Vec2(0, 1)}
-                 : std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
-      e.centroid_uv = area_centroid_uv(roots_[p], e.uv);
-    }
+  const Stopwatch t0;
+  exposure_maps_.emplace_back(roots_, caster_, o_.form_factors.exposure_points,
+                              o_.form_factors.exposure_refined);
+  exposure_at_.resize(r);
+  for (std::int32_t p = 0; p < r; ++p) exposure_at_[p] = {0, p};
+  st.exposure_seconds += t0.seconds();
+  el_.resize(r);
+  for (std::int32_t p = 0; p < r; ++p) {
+    Element& e = el_[p];
+    e.shape = roots_[p];
+    e.root = p;
+    e.key = static_cast<std::uint64_t>(p);
+    e.exposed = exposure_maps_[0].area(p);
+    e.uv = roots_[p].is_triangle()
+               ? std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), Vec2(0, 1)}
+               : std::array<Vec2, 4>{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
+    e.centroid_uv = area_centroid_uv(roots_[p], e.uv);
   }
   min_size_.resize(r);
   for (std::int32_t p = 0; p < r; ++p)
     min_size_[p] = o_.min_element_size > 0.0 ? o_.min_element_size : longest_edge(roots_[p]) / 8.0;
   st.link_tolerance = o_.tolerance();
   st.min_element_size = o_.min_element_size > 0.0 ? o_.min_element_size : 0.0;
-  // B_ref: the mean radiosity of a scene whose surfaces all had the mean reflectance.
+}
+
+// Each root's reflectance and radiosity as the first pass knows them, and B_ref: the mean
+// radiosity of a scene whose surfaces all had the mean reflectance.
+void HierarchyBuilder::first_radiosities() {
+  const auto r = static_cast<std::int32_t>(roots_.size());
+  HierarchyStats& st = h_.stats_;
   double area = 0.0, emitted = 0.0, reflected = 0.0;
   rho_.resize(r);
   b_.resize(r);
@@ -265,6 +301,12 @@ void HierarchyBuilder::run() {
   st.b_ref = area > 0.0 ? emitted / area / (1.0 - mean_rho) : 0.0;
   b_ref_ = st.b_ref_estimate = st.b_ref;
   seen_start_.assign(r + 1, 0);  // no specular light known before the first solve
+}
+
+// Whether a root has a lobe that specular links follow (lobes_); per root, the albedo the oracle
+// judges it by as a receiver, and no mean S of its links yet.
+void HierarchyBuilder::judge_albedos() {
+  const auto r = static_cast<std::int32_t>(roots_.size());
   for (std::int32_t p = 0; p < r && o_.specular_links; ++p)
     lobes_ = lobes_ || materials_[roots_[p].material].has_lobe();
   judged_rho_.resize(r);
@@ -273,104 +315,111 @@ void HierarchyBuilder::run() {
     const Material& m = materials_[roots_[p].material];
     judged_rho_[p] = lobes_ && m.has_lobe() ? Eigen::Array3d(m.diffuse + m.specular) : m.diffuse;
   }
+}
 
-  // Pass 0: every facing pair of roots (as the uniform mesh's pair loop), judged with B = E.
+// Pass 0: every facing pair of roots (as the uniform mesh's pair loop), judged with B = E.
+void HierarchyBuilder::first_pass() {
   HierarchyPass pass;
+  refine(facing_root_pairs(), pass);
+  link_form_factors(pass);
+  bury_unlinked_roots();
+  close_pass(pass, 0);
+}
+
+// The candidates of pass 0: the pairs of exposed roots that face each other (with
+// root_pairs_facing, which counts the buried ones too).
+std::vector<HierarchyBuilder::Candidate> HierarchyBuilder::facing_root_pairs() {
+  const auto r = static_cast<std::int32_t>(roots_.size());
   std::vector<Candidate> candidates;
-  {
-    std::vector<std::vector<Candidate>> rows(r);
-    long long facing = 0;
+  std::vector<std::vector<Candidate>> rows(r);
+  long long facing = 0;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : facing)
-    for (std::int32_t i = 0; i < r; ++i) {
-      const Patch& pi = roots_[i];
-      for (std::int32_t j = i + 1; j < r; ++j) {
-        const Patch& pj = roots_[j];
-        const double eps = 1e-9 * std::max(pi.diameter(), pj.diameter());
-        if (!any_corner_in_front(pj, pi, eps) || !any_corner_in_front(pi, pj, eps)) continue;
-        ++facing;
-        if (el_[i].exposed > 0.0 && el_[j].exposed > 0.0) rows[i].push_back({i, j});
+  for (std::int32_t i = 0; i < r; ++i) {
+    const Patch& pi = roots_[i];
+    for (std::int32_t j = i + 1; j < r; ++j) {
+      const Patch& pj = roots_[j];
+      const double eps = 1e-9 * std::max(pi.diameter(), pj.diameter());
+      if (!any_corner_in_front(pj, pi, eps) || !any_corner_in_front(pi, pj, eps)) continue;
+      ++facing;
+      if (el_[i].exposed > 0.0 && el_[j].exposed > 0.0) rows[i].push_back({i, j});
+    }
+  }
+  h_.stats_.root_pairs_facing = facing;
+  for (auto& row : rows) candidates.insert(candidates.end(), row.begin(), row.end());
+  return candidates;
+}
+
+// A root that exchanges light with nothing has no exposed area (as in the uniform mesh: a
+// block's face pressed flat on the floor, whose probes cannot tell it is buried).
+void HierarchyBuilder::bury_unlinked_roots() {
+  std::vector<char> linked(roots_.size(), 0);
+  for (const auto& chunk : links_)
+    for (const auto& l : chunk) {
+      linked[el_[l.a].root] = 1;
+      linked[el_[l.b].root] = 1;
+    }
+  for (auto& e : el_)
+    if (!linked[e.root]) e.exposed = 0.0;
+}
+
+// Later passes: with the radiosities of the last solve, the links that have become too coarse
+// are judged again: first casting their rays if the first pass linked them without, else
+// splitting the larger end.
+bool HierarchyBuilder::later_pass(int p) {
+  HierarchyPass next;
+  std::vector<Candidate> again;
+  std::vector<Split> split_links;
+  judge_links_again(again, split_links);
+  if (again.empty() && split_links.empty()) return false;
+  std::vector<std::int32_t> to_split;
+  for (const auto& sl : split_links) to_split.push_back(sl.element);
+  split_all(to_split, next);
+  for (const auto& sl : split_links)
+    for (int c = 0; c < 4; ++c)
+      again.push_back({el_[sl.element].first_child + c, sl.other, -1.0f, sl.visibility});
+  refine(std::move(again), next);
+  link_form_factors(next);
+  close_pass(next, p);
+  return true;
+}
+
+// The links the last solve finds too coarse (eq. H1) leave links_: one linked without rays
+// becomes a candidate again, one with rays is split at its larger end where either may split.
+void HierarchyBuilder::judge_links_again(std::vector<Candidate>& again,
+                                         std::vector<Split>& split_links) {
+  for (auto& chunk : links_) {  // the links kept, compacted in place (no copy of them all)
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < chunk.size(); ++k) {
+      const ElementLink l = chunk[k].expand();
+      if (accurate(l)) {
+        chunk[kept++] = chunk[k];
+      } else if (l.visibility == LinkVisibility::kUntested) {
+        again.push_back({l.a, l.b, l.m});
+      } else {
+        const std::int32_t s = split_choice(l.a, l.b);
+        if (s < 0)
+          chunk[kept++] = chunk[k];
+        else
+          split_links.push_back({s, s == l.a ? l.b : l.a, l.visibility});
       }
     }
-    st.root_pairs_facing = facing;
-    for (auto& row : rows) candidates.insert(candidates.end(), row.begin(), row.end());
+    chunk.resize(kept);
+    chunk.shrink_to_fit();  // one chunk's copy at a time; the slack was 5 MB on the mirror cube
   }
-  refine(std::move(candidates), pass);
-  link_form_factors(pass);
-  // A root that exchanges light with nothing has no exposed area (as in the uniform mesh: a
-  // block's face pressed flat on the floor, whose probes cannot tell it is buried).
-  {
-    std::vector<char> linked(r, 0);
-    for (const auto& chunk : links_)
-      for (const auto& l : chunk) {
-        linked[el_[l.a].root] = 1;
-        linked[el_[l.b].root] = 1;
-      }
-    for (auto& e : el_)
-      if (!linked[e.root]) e.exposed = 0.0;
-  }
+  std::erase_if(links_, [](const auto& chunk) { return chunk.empty(); });
+}
+
+// The end of pass p (0 the first): its operator and counts, then a solve for the next pass to
+// judge by, or after the last the links published.
+void HierarchyBuilder::close_pass(HierarchyPass& pass, int p) {
   make_operator();
-  if (o_.passes == 0) publish_links();
+  if (p == o_.passes) publish_links();
   attach_specular();
   pass.links = link_count();
   pass.elements = static_cast<long long>(el_.size());
   pass.leaves = h_.num_leaves();
-  if (o_.passes > 0) solve(pass);
-  st.passes.push_back(pass);
-
-  // Later passes: with the radiosities of the last solve, the links that have become too coarse
-  // are judged again: first casting their rays if the first pass linked them without, else
-  // splitting the larger end.
-  for (int p = 1; p <= o_.passes; ++p) {
-    HierarchyPass next;
-    std::vector<Candidate> again;
-    struct Split {
-      std::int32_t element, other;
-      LinkVisibility visibility;
-    };
-    std::vector<Split> split_links;
-    for (auto& chunk : links_) {  // the links kept, compacted in place (no copy of them all)
-      std::size_t kept = 0;
-      for (std::size_t k = 0; k < chunk.size(); ++k) {
-        const ElementLink l = chunk[k].expand();
-        if (accurate(l)) {
-          chunk[kept++] = chunk[k];
-        } else if (l.visibility == LinkVisibility::kUntested) {
-          again.push_back({l.a, l.b, l.m});
-        } else {
-          const std::int32_t s = split_choice(l.a, l.b);
-          if (s < 0)
-            chunk[kept++] = chunk[k];
-          else
-            split_links.push_back({s, s == l.a ? l.b : l.a, l.visibility});
-        }
-      }
-      chunk.resize(kept);
-      chunk.shrink_to_fit();  // one chunk's copy at a time; the slack was 5 MB on the mirror cube
-    }
-    std::erase_if(links_, [](const auto& chunk) { return chunk.empty(); });
-    if (again.empty() && split_links.empty()) break;
-    std::vector<std::int32_t> to_split;
-    for (const auto& sl : split_links) to_split.push_back(sl.element);
-    split_all(to_split, next);
-    for (const auto& sl : split_links)
-      for (int c = 0; c < 4; ++c)
-        again.push_back({el_[sl.element].first_child + c, sl.other, -1.0f, sl.visibility});
-    refine(std::move(again), next);
-    link_form_factors(next);
-    make_operator();
-    if (p == o_.passes) publish_links();
-    attach_specular();
-    next.links = link_count();
-    next.elements = static_cast<long long>(el_.size());
-    next.leaves = h_.num_leaves();
-    if (p < o_.passes) solve(next);
-    st.passes.push_back(next);
-  }
-  if (!links_.empty()) publish_links();  // the passes ended early
-  el_.shrink_to_fit();  // the last growth's slack (split grows the arrays by a quarter)
-  h_.build_corner_averages(roots_);
-  h_.build_lookup(roots_);
-  st.seconds = t_start.seconds();
+  if (p < o_.passes) solve(pass);
+  h_.stats_.passes.push_back(pass);
 }
 
 void HierarchyBuilder::publish_links() {

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "polyrad/transport/hierarchy.h"
@@ -159,6 +160,11 @@ class HierarchyBuilder {
     bool probed = false;
     long long rays = 0;
   };
+  // A link a later pass splits: the end to split, the other end, what rays found between them.
+  struct Split {
+    std::int32_t element, other;
+    LinkVisibility visibility;
+  };
 
   bool splittable(std::int32_t e) const {
     return 0.5 * hierarchy_detail::longest_edge(el_[e].shape) >=
@@ -189,13 +195,40 @@ class HierarchyBuilder {
   // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
   // visible fractions.
   LinkVisibility probe(ElementLink& l, long long* rays) const;
+  // The visible fractions that weigh the point values f of end `which` of the pair a, b (0: a's,
+  // toward b; 1: b's, toward a), exposure_to the other end's.
+  void weigh_by_visibility(std::int32_t a, std::int32_t b, int which,
+                           const PatchExposure& exposure_to, std::array<float, kOraclePoints>& f,
+                           long long* rays) const;
   Outcome judge(const Candidate& c) const;
   std::uint64_t pair_key(std::int32_t a, std::int32_t b) const;
   void split(std::int32_t e);
   void split_all(std::vector<std::int32_t>& elements, HierarchyPass& pass);
+  // Judges the candidates, splits where the oracle asks and judges the children, until each pair
+  // is linked or dropped; the links go to pending_ (hierarchy_refine.cpp, with the steps below).
   void refine(std::vector<Candidate> candidates, HierarchyPass& pass);
+  using Decisions = std::vector<std::pair<Decision, LinkVisibility>>;  // per candidate
+  Decisions judge_all(const std::vector<Candidate>& candidates, HierarchyPass& pass);
+  void keep_links(const std::vector<Candidate>& candidates, std::int64_t first,
+                  const std::vector<Outcome>& outcome, Decisions& decided);
+  std::vector<Candidate> split_decided(const std::vector<Candidate>& candidates,
+                                       const Decisions& decided, HierarchyPass& pass);
   void link_form_factors(HierarchyPass& pass);
+  // The operator on the current links (eq. H2; hierarchy_make_operator.cpp, with the steps
+  // below).
   void make_operator();
+  // The trees' nodes in pre-order (node_element_, the trees' starts); returns element -> node.
+  std::vector<std::int32_t> lay_out_trees(HierarchicalOperator& op);
+  void sum_inner_exposed();
+  void lay_out_nodes(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of);
+  void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of) const;
+  Vec2 slope_of(std::int32_t r, const std::array<float, kOraclePoints>& points, LinkVisibility v,
+                double mean) const;
+  double corner_drop(std::int32_t r, const Vec2& slope) const;
+  void add_link(const ElementLink& l, const std::vector<std::int32_t>& node_of,
+                Csr<std::array<float, 5>>& f, std::vector<std::int64_t>& fill) const;
+  void energy_guard(HierarchicalOperator& op);
+  void guard_trees(HierarchicalOperator& op, const std::vector<double>& sums, double a_max) const;
   // With lobes: the root form factors of the current links, the transfer (once, after the
   // first pass) and the operator's specular part (eq. H3).
   void attach_specular();
@@ -203,7 +236,22 @@ class HierarchyBuilder {
   // when no later pass will judge them again. Before that the hierarchy holds no copy of them
   // (on the mirror cube, 5 MB at the build's peak).
   void publish_links();
+  // run's steps (hierarchy.cpp).
+  void make_roots();
+  void first_radiosities();
+  void judge_albedos();
+  void first_pass();
+  std::vector<Candidate> facing_root_pairs();
+  void bury_unlinked_roots();
+  // Pass p >= 1; false where the last solve left no link to judge again (the passes end).
+  bool later_pass(int p);
+  void judge_links_again(std::vector<Candidate>& again, std::vector<Split>& split_links);
+  void close_pass(HierarchyPass& pass, int p);
+  // The solve between passes (Gauss-Seidel on the hierarchy), and what the oracle reads of it.
   int solve(HierarchyPass& pass);
+  void remember_specular(const Field& u);
+  void pull_radiosity(const Field& u);
+  void measure_b_ref(const Field& u, const Field& e, const std::vector<double>& w);
   // S_{i->k} of the last solve (0 where there is no such link).
   Eigen::Array3d specular_toward(PatchId i, PatchId k) const {
     const auto first = seen_links_.begin() + seen_start_[i];

@@ -221,37 +221,41 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
   }
   if (open == 0) return LinkVisibility::kHidden;
   if (blocked == 0) return LinkVisibility::kVisible;  // (also when every point was buried)
-  // Partly hidden: each oracle point's value times its visible fraction, from kPointRays rays
-  // to stratified points of the other element, so that the linear function follows a penumbra
-  // and the miss measures what it cannot follow.
-  auto weigh = [&](const Patch& from, const Patch& to, std::array<float, kOraclePoints>& f,
-                   int which) {
-    for (int k = 0; k < kOraclePoints; ++k) {
-      if (!(f[k] > 0.0f)) continue;
-      const Vec3 x = k < from.corners
-                         ? Vec3(from.corner[k] + 0.01 * (from.centroid - from.corner[k]))
-                         : from.centroid;
-      Rng point(o_.seed, pair_key(a, b), which * kOraclePoints + k + 1);
-      int seen = 0, cast = 0;
-      const bool buried_to = which == 0 ? buried_b : buried_a;
-      const PatchExposure& exposure_to = which == 0 ? exposure_b : exposure_a;
-      for (int j = 0; j < kPointRays; ++j) {
-        const double u = point.uniform32(), v = point.uniform32();
-        double density;
-        const Vec3 y = to.sample(Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &density);
-        if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
-        ++*rays;
-        ++cast;
-        if (!caster_.segment_occluded(x, from, y, to)) ++seen;
-      }
-      f[k] *= cast > 0 ? static_cast<float>(seen) / cast : 0.0f;
-    }
-  };
+  // Partly hidden: the point values weighed by their visible fractions.
   l.fmax_a = *std::max_element(l.fa.begin(), l.fa.end());
   l.fmax_b = *std::max_element(l.fb.begin(), l.fb.end());
-  weigh(pa, pb, l.fa, 0);
-  weigh(pb, pa, l.fb, 1);
+  weigh_by_visibility(a, b, 0, exposure_b, l.fa, rays);
+  weigh_by_visibility(a, b, 1, exposure_a, l.fb, rays);
   return LinkVisibility::kPartial;
+}
+
+// Partly hidden: each oracle point's value times its visible fraction, from kPointRays rays
+// to stratified points of the other element, so that the linear function follows a penumbra
+// and the miss measures what it cannot follow.
+void HierarchyBuilder::weigh_by_visibility(std::int32_t a, std::int32_t b, int which,
+                                           const PatchExposure& exposure_to,
+                                           std::array<float, kOraclePoints>& f,
+                                           long long* rays) const {
+  const Patch& from = el_[which == 0 ? a : b].shape;
+  const Patch& to = el_[which == 0 ? b : a].shape;
+  const bool buried_to = !wholly_exposed(el_[which == 0 ? b : a]);
+  for (int k = 0; k < kOraclePoints; ++k) {
+    if (!(f[k] > 0.0f)) continue;
+    const Vec3 x = k < from.corners ? Vec3(from.corner[k] + 0.01 * (from.centroid - from.corner[k]))
+                                    : from.centroid;
+    Rng point(o_.seed, pair_key(a, b), which * kOraclePoints + k + 1);
+    int seen = 0, cast = 0;
+    for (int j = 0; j < kPointRays; ++j) {
+      const double u = point.uniform32(), v = point.uniform32();
+      double density;
+      const Vec3 y = to.sample(Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &density);
+      if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
+      ++*rays;
+      ++cast;
+      if (!caster_.segment_occluded(x, from, y, to)) ++seen;
+    }
+    f[k] *= cast > 0 ? static_cast<float>(seen) / cast : 0.0f;
+  }
 }
 
 HierarchyBuilder::Outcome HierarchyBuilder::judge(const Candidate& c) const {
@@ -279,66 +283,87 @@ HierarchyBuilder::Outcome HierarchyBuilder::judge(const Candidate& c) const {
 
 void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& pass) {
   const Stopwatch t0;
-  // Judged in batches, so that the outcomes (each with a link's oracle data) are never held for
-  // every candidate at once; each batch's links become one chunk.
-  constexpr std::int64_t kBatch = std::int64_t{1} << 15;
   while (!candidates.empty()) {
-    const auto count = static_cast<std::int64_t>(candidates.size());
-    std::vector<std::pair<Decision, LinkVisibility>> decided(count);
-    std::vector<Outcome> outcome;
-    for (std::int64_t first = 0; first < count; first += kBatch) {
-      const std::int64_t n = std::min(kBatch, count - first);
-      outcome.assign(n, Outcome{});
-      long long rays = 0, probes = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : rays, probes)
-      for (std::int64_t k = 0; k < n; ++k) {
-        outcome[k] = judge(candidates[first + k]);
-        rays += outcome[k].rays;
-        probes += outcome[k].probed ? 1 : 0;
-      }
-      pass.visibility_tests += probes;
-      h_.stats_.oracle_rays += rays;
-      std::vector<KeptLink> chunk;
-      chunk.reserve(static_cast<std::size_t>(std::count_if(
-          outcome.begin(), outcome.end(), [](const Outcome& o) { return o.decision == kLink; })));
-      for (std::int64_t k = 0; k < n; ++k) {
-        decided[first + k] = {outcome[k].decision, outcome[k].link.visibility};
-        if (outcome[k].decision != kLink) continue;
-        chunk.push_back(KeptLink::keep(outcome[k].link));
-        // A link judged again keeps its form factor where the same rules would integrate it
-        // again; one linked without rays whose rays now found a shadow below the roots is
-        // integrated again with the full count.
-        const Candidate& c = candidates[first + k];
-        KeptLink& kept = chunk.back();
-        kept.m = c.m >= 0.0f && open_rules(c.a, c.b, c.visibility) ==
-                                    open_rules(kept.a, kept.b, kept.visibility)
-                     ? c.m
-                     : -1.0f;
-      }
-      if (!chunk.empty()) pending_.push_back(std::move(chunk));
-    }
-    pass.candidates += count;
-    std::vector<std::int32_t> to_split;
-    for (std::int64_t k = 0; k < count; ++k) {
-      if (decided[k].first == kSplitA) to_split.push_back(candidates[k].a);
-      if (decided[k].first == kSplitB) to_split.push_back(candidates[k].b);
-    }
-    split_all(to_split, pass);
-    std::vector<Candidate> next;
-    for (std::int64_t k = 0; k < count; ++k) {
-      const Candidate& c = candidates[k];
-      const auto [decision, visibility] = decided[k];
-      if (decision == kSplitA) {
-        for (int i = 0; i < 4; ++i)
-          next.push_back({el_[c.a].first_child + i, c.b, -1.0f, visibility});
-      } else if (decision == kSplitB) {
-        for (int i = 0; i < 4; ++i)
-          next.push_back({c.a, el_[c.b].first_child + i, -1.0f, visibility});
-      }
-    }
-    candidates.swap(next);
+    const Decisions decided = judge_all(candidates, pass);
+    pass.candidates += static_cast<std::int64_t>(candidates.size());
+    candidates = split_decided(candidates, decided, pass);
   }
   pass.oracle_seconds += t0.seconds();
+}
+
+// Judged in batches, so that the outcomes (each with a link's oracle data) are never held for
+// every candidate at once; each batch's links become one chunk.
+HierarchyBuilder::Decisions HierarchyBuilder::judge_all(const std::vector<Candidate>& candidates,
+                                                        HierarchyPass& pass) {
+  constexpr std::int64_t kBatch = std::int64_t{1} << 15;
+  const auto count = static_cast<std::int64_t>(candidates.size());
+  Decisions decided(count);
+  std::vector<Outcome> outcome;
+  for (std::int64_t first = 0; first < count; first += kBatch) {
+    const std::int64_t n = std::min(kBatch, count - first);
+    outcome.assign(n, Outcome{});
+    long long rays = 0, probes = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : rays, probes)
+    for (std::int64_t k = 0; k < n; ++k) {
+      outcome[k] = judge(candidates[first + k]);
+      rays += outcome[k].rays;
+      probes += outcome[k].probed ? 1 : 0;
+    }
+    pass.visibility_tests += probes;
+    h_.stats_.oracle_rays += rays;
+    keep_links(candidates, first, outcome, decided);
+  }
+  return decided;
+}
+
+// The decisions on a batch of candidates from `first` on, and its links as one chunk of pending_.
+void HierarchyBuilder::keep_links(const std::vector<Candidate>& candidates, std::int64_t first,
+                                  const std::vector<Outcome>& outcome, Decisions& decided) {
+  const auto n = static_cast<std::int64_t>(outcome.size());
+  std::vector<KeptLink> chunk;
+  chunk.reserve(static_cast<std::size_t>(std::count_if(
+      outcome.begin(), outcome.end(), [](const Outcome& o) { return o.decision == kLink; })));
+  for (std::int64_t k = 0; k < n; ++k) {
+    decided[first + k] = {outcome[k].decision, outcome[k].link.visibility};
+    if (outcome[k].decision != kLink) continue;
+    chunk.push_back(KeptLink::keep(outcome[k].link));
+    // A link judged again keeps its form factor where the same rules would integrate it
+    // again; one linked without rays whose rays now found a shadow below the roots is
+    // integrated again with the full count.
+    const Candidate& c = candidates[first + k];
+    KeptLink& kept = chunk.back();
+    kept.m = c.m >= 0.0f && open_rules(c.a, c.b, c.visibility) ==
+                                open_rules(kept.a, kept.b, kept.visibility)
+                 ? c.m
+                 : -1.0f;
+  }
+  if (!chunk.empty()) pending_.push_back(std::move(chunk));
+}
+
+// The ends the oracle chose are split; their children, each with the other end, are the next
+// candidates.
+std::vector<HierarchyBuilder::Candidate> HierarchyBuilder::split_decided(
+    const std::vector<Candidate>& candidates, const Decisions& decided, HierarchyPass& pass) {
+  const auto count = static_cast<std::int64_t>(candidates.size());
+  std::vector<std::int32_t> to_split;
+  for (std::int64_t k = 0; k < count; ++k) {
+    if (decided[k].first == kSplitA) to_split.push_back(candidates[k].a);
+    if (decided[k].first == kSplitB) to_split.push_back(candidates[k].b);
+  }
+  split_all(to_split, pass);
+  std::vector<Candidate> next;
+  for (std::int64_t k = 0; k < count; ++k) {
+    const Candidate& c = candidates[k];
+    const auto [decision, visibility] = decided[k];
+    if (decision == kSplitA) {
+      for (int i = 0; i < 4; ++i)
+        next.push_back({el_[c.a].first_child + i, c.b, -1.0f, visibility});
+    } else if (decision == kSplitB) {
+      for (int i = 0; i < 4; ++i)
+        next.push_back({c.a, el_[c.b].first_child + i, -1.0f, visibility});
+    }
+  }
+  return next;
 }
 
 void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
