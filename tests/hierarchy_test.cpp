@@ -324,6 +324,85 @@ TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
       << " m2 half a metre away";
 }
 
+// Refinement converges: as the tolerance falls, the floor under the block approaches a uniform
+// mesh four times finer than the roots (0.05 against 0.2, the block's base on both grids), each
+// of its patches against the exposed leaves' radiosity averaged over it. Relative to the
+// floor's mean, by root mean square over the patches beside the block.
+TEST(Hierarchy, RefinementApproachesTheFineUniformMesh) {
+  std::string fine = kBlockUnderALamp;
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = fine.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    fine.replace(at, from.size(), to);
+  };
+  replace(R"("patch_size": 0.25)", R"("patch_size": 0.1)");
+  replace(R"({"name": "floor", )", R"({"name": "floor", "patch_size": 0.05, )");
+  replace(R"({"name": "lamp", )", R"({"name": "lamp", "patch_size": 0.2, )");
+  constexpr double kCell = 0.05;
+  constexpr int kCells = 40;              // the floor, [0, 2]^2
+  auto beside_block = [](int i, int k) {  // not under the block's footprint [0.8, 1.2]^2
+    return i < 16 || i >= 24 || k < 16 || k >= 24;
+  };
+  auto reference = build(test::scene_from_json(fine), Options{});
+  SolveOptions so;
+  so.tolerance = 1e-9;
+  const SolveResult ru = solve(reference->transport, reference->transport.emission(), so);
+  ASSERT_TRUE(ru.ok()) << ru.message;
+  const ObjectId floor = reference->scene().find_object("floor");
+  std::vector<double> expect(kCells * kCells, -1.0);
+  double mean = 0.0;
+  int count = 0;
+  const PatchSet& patches = reference->world->patches();
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    if (patches[p].object != floor) continue;
+    const int i = static_cast<int>(patches[p].centroid.x() / kCell);
+    const int k = static_cast<int>(patches[p].centroid.z() / kCell);
+    if (!beside_block(i, k)) continue;
+    expect[i * kCells + k] = ru.u(static_cast<Eigen::Index>(p), 0);
+    mean += expect[i * kCells + k];
+    ++count;
+  }
+  ASSERT_EQ(count, kCells * kCells - 64);
+  mean /= count;
+  std::vector<double> errors;
+  double tolerance = 0.0;
+  for (double t : test::refinement_steps<double>({0.2, 0.05, 0.0125}, 2)) {
+    tolerance = t;
+    Options o = hierarchical(tolerance, 0.025);
+    o.overrides.patch_size = 0.2;
+    auto sys = build(test::scene_from_json(kBlockUnderALamp), o);
+    const SolveResult r = solve(sys->transport, sys->transport.emission(), so);
+    ASSERT_TRUE(r.ok()) << r.message;
+    // Each exposed floor leaf (a square: the roots are) spread over the cells it covers.
+    std::vector<double> sum(kCells * kCells, 0.0), area(kCells * kCells, 0.0);
+    const ElementHierarchy& h = *sys->hierarchy;
+    for (const Element& e : h.elements()) {
+      if (!e.is_leaf() || e.shape.object != floor || !(e.exposed > 0.0)) continue;
+      const double half = 0.5 * std::sqrt(e.shape.area);
+      const double x0 = e.shape.centroid.x() - half, x1 = e.shape.centroid.x() + half;
+      const double z0 = e.shape.centroid.z() - half, z1 = e.shape.centroid.z() + half;
+      for (int i = std::max(0, static_cast<int>(x0 / kCell)); i < kCells && i * kCell < x1; ++i)
+        for (int k = std::max(0, static_cast<int>(z0 / kCell)); k < kCells && k * kCell < z1; ++k) {
+          const double w = std::max(0.0, std::min(x1, (i + 1) * kCell) - std::max(x0, i * kCell)) *
+                           std::max(0.0, std::min(z1, (k + 1) * kCell) - std::max(z0, k * kCell));
+          sum[i * kCells + k] += w * r.u(e.leaf, 0);
+          area[i * kCells + k] += w;
+        }
+    }
+    double squares = 0.0;
+    for (int c = 0; c < kCells * kCells; ++c) {
+      if (expect[c] < 0.0) continue;
+      ASSERT_GT(area[c], 0.99 * kCell * kCell) << "cell " << c;
+      squares += std::pow((sum[c] / area[c] - expect[c]) / mean, 2);
+    }
+    errors.push_back(std::sqrt(squares / count));
+    std::printf("tolerance %g: %d leaves, rms %.4f of the floor's mean\n", tolerance,
+                h.num_leaves(), errors.back());
+  }
+  for (std::size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]);
+  if (tolerance <= 0.0125) EXPECT_LT(errors.back(), 0.02);  // 0.050, 0.026, 0.015 on 2026-12-05
+}
+
 // Hanrahan et al.'s count: at one tolerance, links grow about linearly with the elements as the
 // smallest element shrinks (log-log slope near 1; the uniform mesh's pairs grow with slope 2).
 TEST(Hierarchy, LinksGrowAboutLinearlyWithElements) {
