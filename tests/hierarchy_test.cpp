@@ -400,7 +400,9 @@ TEST(Hierarchy, RefinementApproachesTheFineUniformMesh) {
                 h.num_leaves(), errors.back());
   }
   for (std::size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]);
-  if (tolerance <= 0.0125) EXPECT_LT(errors.back(), 0.02);  // 0.050, 0.026, 0.015 on 2026-12-05
+  if (tolerance <= 0.0125) {  // the finest step (Release): 0.050, 0.026, 0.015 on 2026-12-05
+    EXPECT_LT(errors.back(), 0.02);
+  }
 }
 
 // Hanrahan et al.'s count: at one tolerance, links grow about linearly with the elements as the
