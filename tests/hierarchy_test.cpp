@@ -324,6 +324,33 @@ TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
       << " m2 half a metre away";
 }
 
+// The radiosity (channel 0) of the exposed leaves of `object`, a square floor in [0, cells *
+// cell]^2 of y = 0 whose roots are squares, averaged over each cell of a grid in x, z, and the
+// area of leaves each cell's average covers.
+struct GridMeans {
+  std::vector<double> mean, area;
+};
+GridMeans floor_grid_means(const ElementHierarchy& h, const Field& u, ObjectId object, double cell,
+                           int cells) {
+  std::vector<double> sum(cells * cells, 0.0), area(cells * cells, 0.0);
+  for (const Element& e : h.elements()) {
+    if (!e.is_leaf() || e.shape.object != object || !(e.exposed > 0.0)) continue;
+    const double half = 0.5 * std::sqrt(e.shape.area);
+    const double x0 = e.shape.centroid.x() - half, x1 = e.shape.centroid.x() + half;
+    const double z0 = e.shape.centroid.z() - half, z1 = e.shape.centroid.z() + half;
+    for (int i = std::max(0, static_cast<int>(x0 / cell)); i < cells && i * cell < x1; ++i)
+      for (int k = std::max(0, static_cast<int>(z0 / cell)); k < cells && k * cell < z1; ++k) {
+        const double w = std::max(0.0, std::min(x1, (i + 1) * cell) - std::max(x0, i * cell)) *
+                         std::max(0.0, std::min(z1, (k + 1) * cell) - std::max(z0, k * cell));
+        sum[i * cells + k] += w * u(e.leaf, 0);
+        area[i * cells + k] += w;
+      }
+  }
+  for (int c = 0; c < cells * cells; ++c)
+    if (area[c] > 0.0) sum[c] /= area[c];
+  return {sum, area};
+}
+
 // Refinement converges: as the tolerance falls, the floor under the block approaches a uniform
 // mesh four times finer than the roots (0.05 against 0.2, the block's base on both grids), each
 // of its patches against the exposed leaves' radiosity averaged over it. Relative to the
@@ -373,31 +400,16 @@ TEST(Hierarchy, RefinementApproachesTheFineUniformMesh) {
     auto sys = build(test::scene_from_json(kBlockUnderALamp), o);
     const SolveResult r = solve(sys->transport, sys->transport.emission(), so);
     ASSERT_TRUE(r.ok()) << r.message;
-    // Each exposed floor leaf (a square: the roots are) spread over the cells it covers.
-    std::vector<double> sum(kCells * kCells, 0.0), area(kCells * kCells, 0.0);
-    const ElementHierarchy& h = *sys->hierarchy;
-    for (const Element& e : h.elements()) {
-      if (!e.is_leaf() || e.shape.object != floor || !(e.exposed > 0.0)) continue;
-      const double half = 0.5 * std::sqrt(e.shape.area);
-      const double x0 = e.shape.centroid.x() - half, x1 = e.shape.centroid.x() + half;
-      const double z0 = e.shape.centroid.z() - half, z1 = e.shape.centroid.z() + half;
-      for (int i = std::max(0, static_cast<int>(x0 / kCell)); i < kCells && i * kCell < x1; ++i)
-        for (int k = std::max(0, static_cast<int>(z0 / kCell)); k < kCells && k * kCell < z1; ++k) {
-          const double w = std::max(0.0, std::min(x1, (i + 1) * kCell) - std::max(x0, i * kCell)) *
-                           std::max(0.0, std::min(z1, (k + 1) * kCell) - std::max(z0, k * kCell));
-          sum[i * kCells + k] += w * r.u(e.leaf, 0);
-          area[i * kCells + k] += w;
-        }
-    }
+    const GridMeans got = floor_grid_means(*sys->hierarchy, r.u, floor, kCell, kCells);
     double squares = 0.0;
     for (int c = 0; c < kCells * kCells; ++c) {
       if (expect[c] < 0.0) continue;
-      ASSERT_GT(area[c], 0.99 * kCell * kCell) << "cell " << c;
-      squares += std::pow((sum[c] / area[c] - expect[c]) / mean, 2);
+      ASSERT_GT(got.area[c], 0.99 * kCell * kCell) << "cell " << c;
+      squares += std::pow((got.mean[c] - expect[c]) / mean, 2);
     }
     errors.push_back(std::sqrt(squares / count));
     std::printf("tolerance %g: %d leaves, rms %.4f of the floor's mean\n", tolerance,
-                h.num_leaves(), errors.back());
+                sys->hierarchy->num_leaves(), errors.back());
   }
   for (std::size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]);
   if (tolerance <= 0.0125) {  // the finest step (Release): 0.050, 0.026, 0.015 on 2026-12-05
