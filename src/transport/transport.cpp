@@ -54,11 +54,53 @@ void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId 
   }
 }
 
+// The candidate links of the fixed point below: every (i, k) that a transfer entry with a
+// positive fraction names and with F_ik > 0, kept per reflector i sorted by k, so a lookup is a
+// binary search in one short row (a std::map of the room's half million links cost 1.8 s a
+// call). Each reflector's row is built on its own, a reflector a task.
+struct CandidateLinks {
+  std::vector<std::int64_t> row_start;
+  std::vector<PatchId> to;
+
+  CandidateLinks(const FormFactors& ff, const SpecularTransfer& st) {
+    const auto n = static_cast<PatchId>(st.start.empty() ? 0 : st.start.size() - 1);
+    std::vector<std::vector<PatchId>> rows(n);
+#pragma omp parallel for schedule(dynamic, 16)
+    for (PatchId i = 0; i < n; ++i) {
+      std::vector<PatchId>& row = rows[i];
+      for (auto e = st.start[i]; e < st.start[i + 1]; ++e)
+        if (!(st.fraction[e] <= 0.0f)) row.push_back(st.to[e]);
+      std::sort(row.begin(), row.end());
+      row.erase(std::unique(row.begin(), row.end()), row.end());
+      std::erase_if(row, [&](PatchId k) { return ff.at(i, k) <= 0.0; });
+    }
+    row_start.assign(n + 1, 0);
+    std::size_t count = 0;
+    for (const auto& row : rows) count += row.size();
+    to.reserve(count);
+    for (PatchId i = 0; i < n; ++i) {  // each row freed as it joins: held about once
+      to.insert(to.end(), rows[i].begin(), rows[i].end());
+      row_start[i + 1] = static_cast<std::int64_t>(to.size());
+      std::vector<PatchId>().swap(rows[i]);
+    }
+  }
+  PatchId reflectors() const { return static_cast<PatchId>(row_start.size()) - 1; }
+  std::int64_t size() const { return static_cast<std::int64_t>(to.size()); }
+  // The index of candidate (i, k), or -1.
+  std::int64_t index_of(PatchId i, PatchId k) const {
+    if (i < 0 || i >= reflectors()) return -1;
+    const auto first = to.begin() + row_start[i], last = to.begin() + row_start[i + 1];
+    const auto it = std::lower_bound(first, last, k);
+    return it != last && *it == k ? it - to.begin() : -1;
+  }
+};
+
 }  // namespace
 
-// The fixed point of transport.h. The candidates, every (i, k) that an entry with a positive
-// fraction names and with F_ik > 0, are kept per reflector sorted by k, so a lookup is a binary
-// search in one short row (a std::map of the room's half million links cost 1.8 s a call).
+// The fixed point of transport.h over the candidate links. Sources that can shine light their
+// links at once; the others (pure reflectors) wait on the link that feeds them, and those
+// entries are swept until nothing changes (at most as many rounds as the longest chain of
+// reflectors, plus one). A reflector's entries mark only its own candidates: a reflector a task.
 std::vector<Link> active_specular_links(const PatchSet& patches,
                                         const std::vector<Material>& materials,
                                         const FormFactors& ff, const SpecularTransfer& st) {
@@ -67,55 +109,37 @@ std::vector<Link> active_specular_links(const PatchSet& patches,
     const Patch& p = patches[j];
     return p.emitter || materials[p.material].diffuse.maxCoeff() > 0.0;
   };
-  const auto n = static_cast<PatchId>(st.start.empty() ? 0 : st.start.size() - 1);
-  std::vector<std::int64_t> row_start(n + 1, 0);
-  std::vector<PatchId> to;  // candidate k of each reflector, sorted
-  for (PatchId i = 0; i < n; ++i) {
-    const auto first = static_cast<std::ptrdiff_t>(to.size());
-    for (auto e = st.start[i]; e < st.start[i + 1]; ++e)
-      if (!(st.fraction[e] <= 0.0f)) to.push_back(st.to[e]);
-    std::sort(to.begin() + first, to.end());
-    to.erase(std::unique(to.begin() + first, to.end()), to.end());
-    to.erase(std::remove_if(to.begin() + first, to.end(),
-                            [&](PatchId k) { return ff.at(i, k) <= 0.0; }),
-             to.end());
-    row_start[i + 1] = static_cast<std::int64_t>(to.size());
-  }
-  auto index_of = [&](PatchId i, PatchId k) -> std::int64_t {
-    if (i < 0 || i >= n) return -1;
-    const auto first = to.begin() + row_start[i], last = to.begin() + row_start[i + 1];
-    const auto it = std::lower_bound(first, last, k);
-    return it != last && *it == k ? it - to.begin() : -1;
-  };
-  // Sources that can shine light their links at once; the others (pure reflectors) wait on
-  // the link that feeds them, and those entries are swept until nothing changes (at most as
-  // many rounds as the longest chain of reflectors, plus one).
-  std::vector<char> active(to.size(), 0);
-  std::vector<std::pair<std::int64_t, std::int64_t>> waiting;  // (link, the link it waits on)
+  const CandidateLinks candidates(ff, st);
+  const PatchId n = candidates.reflectors();
+  std::vector<char> active(candidates.size(), 0);
+  using Wait = std::pair<std::int64_t, std::int64_t>;  // (link, the link it waits on)
+  std::vector<std::vector<Wait>> waits(n);
+#pragma omp parallel for schedule(dynamic, 16)
   for (PatchId i = 0; i < n; ++i)
     for (auto e = st.start[i]; e < st.start[i + 1]; ++e) {
       if (st.fraction[e] <= 0.0f) continue;
-      const std::int64_t c = index_of(i, st.to[e]);
+      const std::int64_t c = candidates.index_of(i, st.to[e]);
       if (c < 0) continue;  // no form factor F_ik
       const PatchId j = st.from[e];
       if (b_can_shine(j)) {
         active[c] = 1;
-      } else if (const std::int64_t source = index_of(j, i); source >= 0) {
-        waiting.emplace_back(c, source);
+      } else if (const std::int64_t source = candidates.index_of(j, i); source >= 0) {
+        waits[i].emplace_back(c, source);
       }
     }
   for (bool changed = true; changed;) {
     changed = false;
-    for (const auto& [c, source] : waiting)
-      if (!active[c] && active[source]) {
-        active[c] = 1;
-        changed = true;
-      }
+    for (const auto& row : waits)
+      for (const auto& [c, source] : row)
+        if (!active[c] && active[source]) {
+          active[c] = 1;
+          changed = true;
+        }
   }
   std::vector<Link> links;
   for (PatchId i = 0; i < n; ++i)
-    for (auto c = row_start[i]; c < row_start[i + 1]; ++c)
-      if (active[c]) links.push_back(Link{i, to[c]});
+    for (auto c = candidates.row_start[i]; c < candidates.row_start[i + 1]; ++c)
+      if (active[c]) links.push_back(Link{i, candidates.to[c]});
   return links;
 }
 
