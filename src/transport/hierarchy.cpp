@@ -157,7 +157,7 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
     w[l] = el_[h_.leaf_element_[l]].exposed;
   }
   for (Eigen::Index l = leaves; l < size; ++l) w[l] = sp->flux_weight[l - leaves] / kPi;
-  auto norm = [&](const Field& f) {
+  auto norm = [&](const auto& f) {  // a field or an expression (no field per sweep)
     double s = 0.0;
     for (Eigen::Index l = 0; l < size; ++l) s += w[l] * f.row(l).cwiseAbs().sum();
     return s;

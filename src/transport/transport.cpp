@@ -362,13 +362,6 @@ Eigen::Array3d TransportOperator::flux_norm_channels(const Field& f) const {
   return n;
 }
 
-double TransportOperator::flux_norm(const Field& f) const {
-  double s = 0.0;
-  for (Eigen::Index r = 0; r < f.rows(); ++r)
-    s += layout_.flux_weight[r] * f.row(r).cwiseAbs().sum();
-  return s;
-}
-
 std::size_t TransportOperator::bytes() const {
   return weights_.bytes() + row_colour_.size() * sizeof(Eigen::Array3f) +
          layout_.links.size() * sizeof(Link) + layout_.link_start.size() * sizeof(std::int64_t) +
