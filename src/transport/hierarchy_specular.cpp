@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/util/machine.h"
 
 namespace polyrad {
 
@@ -190,8 +191,8 @@ void add_rows(RootSpecular& sp, const FormFactors& ff, const SpecularTransfer& t
   rows.rows = sp.num_links();
   rows.cols = sp.max_pairs;
   rows.start.assign(static_cast<std::size_t>(rows.rows + 1), 0);
-  rows.column.resize(static_cast<std::size_t>(offset[reflectors]));
-  rows.value.resize(static_cast<std::size_t>(offset[reflectors]));
+  resize_on_huge_pages(rows.column, static_cast<std::size_t>(offset[reflectors]));
+  resize_on_huge_pages(rows.value, static_cast<std::size_t>(offset[reflectors]));
 #pragma omp parallel
   {
     RowScratch scratch(ff.area.size());

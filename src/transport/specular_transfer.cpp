@@ -7,6 +7,7 @@
 #include <map>
 #include <numeric>
 
+#include "polyrad/util/machine.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
 #include "polyrad/util/timer.h"
@@ -494,14 +495,19 @@ SpecularTransfer compute_specular_transfer(const PatchSet& patches,
 
   SpecularTransfer st;
   st.start.assign(n + 1, 0);
+  for (PatchId i = 0; i < n; ++i) st.start[i + 1] = st.start[i] + per_patch[i].size();
+  resize_on_huge_pages(st.from, st.start[n]);  // the room's: 7 million entries
+  resize_on_huge_pages(st.to, st.start[n]);
+  resize_on_huge_pages(st.fraction, st.start[n]);
   TransferCounters total;
   for (PatchId i = 0; i < n; ++i) {
-    for (const auto& e : per_patch[i]) {
-      st.from.push_back(e.from);
-      st.to.push_back(e.to);
-      st.fraction.push_back(e.fraction);
+    for (std::size_t k = 0; k < per_patch[i].size(); ++k) {
+      const TransferEntry& e = per_patch[i][k];
+      st.from[st.start[i] + k] = e.from;
+      st.to[st.start[i] + k] = e.to;
+      st.fraction[st.start[i] + k] = e.fraction;
     }
-    st.start[i + 1] = static_cast<std::int64_t>(st.to.size());
+    std::vector<TransferEntry>().swap(per_patch[i]);  // held about once
     total.rays += counters[i].rays;
     total.unseen += counters[i].unseen;
     total.dropped += counters[i].dropped;

@@ -1,12 +1,14 @@
 // The machine and this process's use of it (util/machine.h).
 #include "polyrad/util/machine.h"
 
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
+#include <cstdint>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -51,6 +53,21 @@ void return_large_blocks_to_the_system() {
 #if defined(__GLIBC__)
   // A fixed threshold also turns glibc's raising of it off (mallopt(3)).
   mallopt(M_MMAP_THRESHOLD, 1 << 18);
+#endif
+}
+
+void advise_huge_pages(const void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr std::uintptr_t kHuge = std::uintptr_t{1} << 21;
+  const auto begin = reinterpret_cast<std::uintptr_t>(data);
+  const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1),
+                       last = (begin + bytes) & ~(kHuge - 1);
+  // Only whole huge pages inside the block: the pages around them may belong to other blocks.
+  // Failure (no transparent huge pages) leaves the pages as they were.
+  if (last > first) madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
 #endif
 }
 
