@@ -540,6 +540,27 @@ TEST(Hierarchy, SameLinksOnOneOrTwoThreads) {
   }
 }
 
+// The operator is filled on both threads, each link taking the next free place in two rows,
+// and its rows sorted after: the same operator on 1 and 2 threads, to the bit, leaves and
+// specular links (a row in another order would sum in another order).
+TEST(Hierarchy, SameOperatorOnOneOrTwoThreads) {
+  auto apply_on = [](int threads) {
+    omp_set_num_threads(threads);
+    auto sys = coarse_hierarchy("cornell-mirror-cube");
+    omp_set_num_threads(omp_get_num_procs());
+    const TransportOperator& t = sys->transport;
+    Field in(t.size(), 3), out;
+    for (Eigen::Index r = 0; r < t.size(); ++r)
+      in.row(r) << 1.0 + 0.001 * r, 2.0 - 0.0005 * r, 0.5 + (r % 7);
+    t.apply(in, out);
+    return out;
+  };
+  const Field one = apply_on(1), two = apply_on(2);
+  ASSERT_EQ(one.rows(), two.rows());
+  EXPECT_GT(one.rows(), 1000);
+  EXPECT_TRUE((one.array() == two.array()).all());
+}
+
 // Lobes are carried by root links (eq. H3): the mirror cube's faces get links to the roots they
 // send light to, after the leaves; --classic drops them.
 TEST(Hierarchy, LobesAreCarriedByRootLinks) {

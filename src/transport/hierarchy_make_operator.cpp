@@ -2,10 +2,12 @@
 // papers/glossy-radiosity.md): the trees in pre-order, the link rows with their slopes, and the
 // energy guard (section 5).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
 #include "hierarchy_builder.h"
+#include "polyrad/util/machine.h"
 
 namespace polyrad {
 
@@ -45,10 +47,11 @@ std::vector<double> guard_weights(const std::vector<double>& area, const std::ve
   return c;
 }
 
-// Columns ascending in each row of the link rows.
+// Columns ascending in each row of the link rows, a row a task.
 void sort_rows(Csr<std::array<float, 5>>& f) {
   std::vector<std::pair<std::int32_t, std::array<float, 5>>> row;
-  for (std::int32_t k = 0; k < f.rows; ++k) {
+#pragma omp parallel for schedule(dynamic, 256) firstprivate(row)
+  for (std::int32_t k = 0; k < static_cast<std::int32_t>(f.rows); ++k) {
     row.clear();
     for (auto e = f.start[k]; e < f.start[k + 1]; ++e) row.emplace_back(f.column[e], f.value[e]);
     std::sort(row.begin(), row.end(),
@@ -145,7 +148,9 @@ void HierarchyBuilder::lay_out_nodes(HierarchicalOperator& op,
 }
 
 // Link rows (eq. H2): F_ab = m, F_ba = m A'_a / A'_b, from one etendue G = A'_a m, each with
-// the slopes of its linear function over the receiver.
+// the slopes of its linear function over the receiver. The links on both threads (their slopes'
+// fits are most of the cost), each taking the next free place of a row atomically: the order in
+// a row then depends on the threads, and sort_rows restores it (no two links join one pair).
 void HierarchyBuilder::fill_link_rows(HierarchicalOperator& op,
                                       const std::vector<std::int32_t>& node_of) const {
   const auto n = static_cast<std::int32_t>(node_element_.size());
@@ -159,11 +164,14 @@ void HierarchyBuilder::fill_link_rows(HierarchicalOperator& op,
   f.rows = f.cols = n;
   f.start.assign(n + 1, 0);
   for (std::int32_t k = 0; k < n; ++k) f.start[k + 1] = f.start[k] + count[k + 1];
-  f.column.resize(f.start[n]);
-  f.value.resize(f.start[n]);
+  resize_on_huge_pages(f.column, f.start[n]);
+  resize_on_huge_pages(f.value, f.start[n]);
   std::vector<std::int64_t> fill(f.start.begin(), f.start.end() - 1);
-  for (const auto& chunk : links_)
-    for (const KeptLink& kept : chunk) add_link(kept.expand(), node_of, f, fill);
+  for (const auto& chunk : links_) {
+    const auto size = static_cast<std::int64_t>(chunk.size());
+#pragma omp parallel for schedule(dynamic, 256)
+    for (std::int64_t k = 0; k < size; ++k) add_link(chunk[k].expand(), node_of, f, fill);
+  }
 }
 
 // Each side's point form factors (times their visible fractions, for a partly hidden pair) as
@@ -185,7 +193,7 @@ double HierarchyBuilder::corner_drop(std::int32_t r, const Vec2& slope) const {
   return d;
 }
 
-// Link l's entry in the row of each end, at the rows' next free places (fill).
+// Link l's entry in the row of each end, at the rows' next free places (fill, taken atomically).
 void HierarchyBuilder::add_link(const ElementLink& l, const std::vector<std::int32_t>& node_of,
                                 Csr<std::array<float, 5>>& f,
                                 std::vector<std::int64_t>& fill) const {
@@ -205,14 +213,14 @@ void HierarchyBuilder::add_link(const ElementLink& l, const std::vector<std::int
   }
   const Vec2 ca = ab > 0.0 && aa > 0.0 ? Vec2(gb * (ab / aa)) : Vec2::Zero();  // c_ab
   const Vec2 cb = ab > 0.0 && aa > 0.0 ? Vec2(ga * (aa / ab)) : Vec2::Zero();  // c_ba
-  f.column[fill[ra]] = rb;
-  f.value[fill[ra]++] = {static_cast<float>(f_ab), static_cast<float>(ga.x()),
-                         static_cast<float>(ga.y()), static_cast<float>(ca.x()),
-                         static_cast<float>(ca.y())};
-  f.column[fill[rb]] = ra;
-  f.value[fill[rb]++] = {static_cast<float>(f_ba), static_cast<float>(gb.x()),
-                         static_cast<float>(gb.y()), static_cast<float>(cb.x()),
-                         static_cast<float>(cb.y())};
+  const std::int64_t at_a = std::atomic_ref<std::int64_t>(fill[ra]).fetch_add(1);
+  f.column[at_a] = rb;
+  f.value[at_a] = {static_cast<float>(f_ab), static_cast<float>(ga.x()), static_cast<float>(ga.y()),
+                   static_cast<float>(ca.x()), static_cast<float>(ca.y())};
+  const std::int64_t at_b = std::atomic_ref<std::int64_t>(fill[rb]).fetch_add(1);
+  f.column[at_b] = ra;
+  f.value[at_b] = {static_cast<float>(f_ba), static_cast<float>(gb.x()), static_cast<float>(gb.y()),
+                   static_cast<float>(cb.x()), static_cast<float>(cb.y())};
 }
 
 // The energy guard: every column of T sums to at most a_max in flux form (section 5). The form
