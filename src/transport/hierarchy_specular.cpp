@@ -190,12 +190,13 @@ void add_rows(RootSpecular& sp, const FormFactors& ff, const SpecularTransfer& t
   Csr<float>& rows = sp.rows;
   rows.rows = sp.num_links();
   rows.cols = sp.max_pairs;
+  if (reflectors == 0) return;
   rows.start.assign(static_cast<std::size_t>(rows.rows + 1), 0);
   resize_on_huge_pages(rows.column, static_cast<std::size_t>(offset[reflectors]));
   resize_on_huge_pages(rows.value, static_cast<std::size_t>(offset[reflectors]));
 #pragma omp parallel
   {
-    RowScratch scratch(ff.area.size());
+    RowScratch scratch(sp.link_start.size() - 1);  // a slot per root
 #pragma omp for schedule(dynamic, 1)
     for (std::int64_t x = 0; x < reflectors; ++x)
       written[x] = reflector_rows(sp, x, ff, transfer, scratch, offset[x]);
@@ -210,6 +211,10 @@ void add_rows(RootSpecular& sp, const FormFactors& ff, const SpecularTransfer& t
   }
   rows.column.resize(static_cast<std::size_t>(end));
   rows.value.resize(static_cast<std::size_t>(end));
+  if (8 * end < 7 * offset[reflectors]) {  // more than an eighth unused (the room: none)
+    rows.column.shrink_to_fit();
+    rows.value.shrink_to_fit();
+  }
   for (std::int64_t l = 0; l < rows.rows; ++l) rows.start[l + 1] += rows.start[l];
 }
 

@@ -65,18 +65,20 @@ struct CandidateLinks {
   CandidateLinks(const FormFactors& ff, const SpecularTransfer& st) {
     const auto n = static_cast<PatchId>(st.start.empty() ? 0 : st.start.size() - 1);
     std::vector<std::vector<PatchId>> rows(n);
-#pragma omp parallel for schedule(dynamic, 16)
+    std::vector<PatchId> row;  // a thread's raw row: only the distinct candidates are kept
+#pragma omp parallel for schedule(dynamic, 16) firstprivate(row)
     for (PatchId i = 0; i < n; ++i) {
-      std::vector<PatchId>& row = rows[i];
+      row.clear();
       for (auto e = st.start[i]; e < st.start[i + 1]; ++e)
         if (!(st.fraction[e] <= 0.0f)) row.push_back(st.to[e]);
       std::sort(row.begin(), row.end());
       row.erase(std::unique(row.begin(), row.end()), row.end());
       std::erase_if(row, [&](PatchId k) { return ff.at(i, k) <= 0.0; });
+      rows[i].assign(row.begin(), row.end());
     }
     row_start.assign(n + 1, 0);
     std::size_t count = 0;
-    for (const auto& row : rows) count += row.size();
+    for (const auto& r : rows) count += r.size();
     to.reserve(count);
     for (PatchId i = 0; i < n; ++i) {  // each row freed as it joins: held about once
       to.insert(to.end(), rows[i].begin(), rows[i].end());
