@@ -178,8 +178,8 @@ std::int64_t reflector_rows(RootSpecular& sp, std::int64_t x, const FormFactors&
 }
 
 // Every reflector's rows, a reflector a task, each written from an offset of its transfer
-// entries (its rows have no more entries than those), then moved down over the gaps in
-// reflector order: no second copy of the rows is held (the room's are 7 million entries).
+// entries (its rows have no more entries than those), then joined by close_gaps: no second copy
+// of the rows is held (the room's are 7 million entries).
 void add_rows(RootSpecular& sp, const FormFactors& ff, const SpecularTransfer& transfer) {
   const auto reflectors = static_cast<std::int64_t>(sp.reflector.size());
   std::vector<std::int64_t> offset(reflectors + 1, 0), written(reflectors, 0);
@@ -201,20 +201,8 @@ void add_rows(RootSpecular& sp, const FormFactors& ff, const SpecularTransfer& t
     for (std::int64_t x = 0; x < reflectors; ++x)
       written[x] = reflector_rows(sp, x, ff, transfer, scratch, offset[x]);
   }
-  std::int64_t end = 0;
-  for (std::int64_t x = 0; x < reflectors; ++x) {
-    if (end < offset[x]) {  // forward copies: the target starts before the source
-      std::copy_n(rows.column.begin() + offset[x], written[x], rows.column.begin() + end);
-      std::copy_n(rows.value.begin() + offset[x], written[x], rows.value.begin() + end);
-    }
-    end += written[x];
-  }
-  rows.column.resize(static_cast<std::size_t>(end));
-  rows.value.resize(static_cast<std::size_t>(end));
-  if (8 * end < 7 * offset[reflectors]) {  // more than an eighth unused (the room: none)
-    rows.column.shrink_to_fit();
-    rows.value.shrink_to_fit();
-  }
+  close_gaps(rows.column, offset, written);
+  close_gaps(rows.value, offset, written);
   for (std::int64_t l = 0; l < rows.rows; ++l) rows.start[l + 1] += rows.start[l];
 }
 

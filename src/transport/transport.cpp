@@ -57,34 +57,31 @@ void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId 
 // The candidate links of the fixed point below: every (i, k) that a transfer entry with a
 // positive fraction names and with F_ik > 0, kept per reflector i sorted by k, so a lookup is a
 // binary search in one short row (a std::map of the room's half million links cost 1.8 s a
-// call). Each reflector's row is built on its own, a reflector a task.
+// call). Each reflector's row is sorted and made distinct in place, within the span of its
+// transfer entries, a reflector a task; close_gaps joins them.
 struct CandidateLinks {
   std::vector<std::int64_t> row_start;
   std::vector<PatchId> to;
 
   CandidateLinks(const FormFactors& ff, const SpecularTransfer& st) {
     const auto n = static_cast<PatchId>(st.start.empty() ? 0 : st.start.size() - 1);
-    std::vector<std::vector<PatchId>> rows(n);
-    std::vector<PatchId> row;  // a thread's raw row: only the distinct candidates are kept
-#pragma omp parallel for schedule(dynamic, 16) firstprivate(row)
+    const std::vector<std::int64_t> offset(st.start.begin(), st.start.begin() + n);
+    std::vector<std::int64_t> written(n, 0);
+    to.resize(n > 0 ? st.start[n] : 0);
+#pragma omp parallel for schedule(dynamic, 16)
     for (PatchId i = 0; i < n; ++i) {
-      row.clear();
+      const auto first = to.begin() + st.start[i];
+      auto last = first;
       for (auto e = st.start[i]; e < st.start[i + 1]; ++e)
-        if (!(st.fraction[e] <= 0.0f)) row.push_back(st.to[e]);
-      std::sort(row.begin(), row.end());
-      row.erase(std::unique(row.begin(), row.end()), row.end());
-      std::erase_if(row, [&](PatchId k) { return ff.at(i, k) <= 0.0; });
-      rows[i].assign(row.begin(), row.end());
+        if (!(st.fraction[e] <= 0.0f)) *last++ = st.to[e];
+      std::sort(first, last);
+      last = std::unique(first, last);
+      last = std::remove_if(first, last, [&](PatchId k) { return ff.at(i, k) <= 0.0; });
+      written[i] = last - first;
     }
+    close_gaps(to, offset, written);
     row_start.assign(n + 1, 0);
-    std::size_t count = 0;
-    for (const auto& r : rows) count += r.size();
-    to.reserve(count);
-    for (PatchId i = 0; i < n; ++i) {  // each row freed as it joins: held about once
-      to.insert(to.end(), rows[i].begin(), rows[i].end());
-      row_start[i + 1] = static_cast<std::int64_t>(to.size());
-      std::vector<PatchId>().swap(rows[i]);
-    }
+    for (PatchId i = 0; i < n; ++i) row_start[i + 1] = row_start[i] + written[i];
   }
   PatchId reflectors() const { return static_cast<PatchId>(row_start.size()) - 1; }
   std::int64_t size() const { return static_cast<std::int64_t>(to.size()); }

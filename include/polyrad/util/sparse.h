@@ -8,6 +8,7 @@
 //   Csr<float> f = ...;
 //   for (auto [column, value] : f.row(i)) use(column, value);
 //   f.multiply(x.data(), 3, y.data());            // y = F x, rows in parallel
+//   close_gaps(f.column, offset, written);         // rows built in parallel, then joined
 //
 // Memory: 4 bytes per column index plus sizeof(V) per value, plus 8 bytes per row.
 // multiply: one pass over the entries, width multiply-adds each.
@@ -126,5 +127,23 @@ struct Csr {
     }
   }
 };
+
+// Rows built in parallel, each from its own offset in v (offset[r], r < written.size()) within
+// a bound known beforehand, written[r] entries long: moves each down over the gaps before it,
+// in row order, and sizes v to their total (its capacity freed when more than an eighth went
+// unused). So the rows are held once, with no copy of each row of its own.
+template <typename T>
+void close_gaps(std::vector<T>& v, const std::vector<std::int64_t>& offset,
+                const std::vector<std::int64_t>& written) {
+  std::int64_t end = 0;
+  for (std::size_t r = 0; r < written.size(); ++r) {
+    if (end < offset[r])  // a forward copy: the target starts before the source
+      std::copy_n(v.begin() + offset[r], written[r], v.begin() + end);
+    end += written[r];
+  }
+  const std::size_t bound = v.size();
+  v.resize(static_cast<std::size_t>(end));
+  if (8 * v.size() < 7 * bound) v.shrink_to_fit();
+}
 
 }  // namespace polyrad
