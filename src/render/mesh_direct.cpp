@@ -7,7 +7,8 @@
 
 namespace polyrad {
 
-MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches) {
+MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
+                       const std::vector<Material>* materials, bool mirrored) {
   MeshDirect d;
   std::map<ObjectId, int> index;  // emitting object -> its place, in order of first patch
   for (std::size_t p = 0; p < patches.size(); ++p)
@@ -24,7 +25,19 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches) {
     const auto i = static_cast<int>(l);
     object_of[l] = patches[h ? h->elements()[h->element_of_leaf(i)].root : i].object;
   }
-  Field out;
+  // The links sent by a mirror, each given a row.
+  const std::vector<Link>& links = t.layout().links;
+  if (materials && !links.empty()) {
+    d.link_row.assign(links.size(), -1);
+    std::int32_t rows = 0;
+    for (std::size_t l = 0; l < links.size(); ++l) {
+      const Material& m = (*materials)[patches[links[l].from].material];
+      if (m.has_lobe() && m.is_delta()) d.link_row[l] = rows++;
+    }
+    d.link_value.assign(static_cast<std::size_t>(rows) * d.objects, {0.0f, 0.0f, 0.0f});
+    if (mirrored) d.mirrored.assign(d.value.size(), {0.0f, 0.0f, 0.0f});
+  }
+  Field out, links_only, again;
   for (const auto& [object, o] : index) {
     std::vector<Rgb> unit(static_cast<std::size_t>(b), Rgb::Zero());
     for (std::int64_t l = 0; l < b; ++l)
@@ -34,6 +47,26 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches) {
       d.value[static_cast<std::size_t>(l * d.objects + o)] = {static_cast<float>(out(l, 0)),
                                                               static_cast<float>(out(l, 1)),
                                                               static_cast<float>(out(l, 2))};
+    for (std::size_t l = 0; l < d.link_row.size(); ++l)
+      if (d.link_row[l] >= 0) {
+        const auto u = static_cast<Eigen::Index>(b + static_cast<std::int64_t>(l));
+        d.link_value[static_cast<std::size_t>(d.link_row[l]) * d.objects + o] = {
+            static_cast<float>(out(u, 0)), static_cast<float>(out(u, 1)),
+            static_cast<float>(out(u, 2))};
+      }
+    if (d.mirrored.empty()) continue;
+    // The bounce after: T applied to the mirrors' links alone.
+    links_only = Field::Zero(out.rows(), 3);
+    for (std::size_t l = 0; l < d.link_row.size(); ++l)
+      if (d.link_row[l] >= 0) {
+        const auto u = static_cast<Eigen::Index>(b + static_cast<std::int64_t>(l));
+        links_only.row(u) = out.row(u);
+      }
+    t.apply(links_only, again);
+    for (std::int64_t l = 0; l < b; ++l)
+      d.mirrored[static_cast<std::size_t>(l * d.objects + o)] = {static_cast<float>(again(l, 0)),
+                                                                 static_cast<float>(again(l, 1)),
+                                                                 static_cast<float>(again(l, 2))};
   }
   return d;
 }

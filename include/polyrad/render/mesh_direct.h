@@ -13,7 +13,16 @@
 //   MeshDirect d = mesh_direct(sys->transport, world->patches());
 //   Gather g = build_gather(*world, t.layout(), options, &d);
 //
-// Cost: one application of T per emitting object; memory 12 bytes per B unknown and object.
+// With the scene's materials it also holds, for each link unknown S_{j->i} sent by a mirror j
+// (a delta lobe), the same for that link: (T e_o)_{j->i} = s_j sum_{k in o} R_kji, the part of
+// S_{j->i} that is o's light reflected once by j. The final gather's mirror images (render/
+// camera_gather.h) take that part at the pixel itself, so its reads of those links leave it out.
+// With `mirrored` as well, per B unknown l and object o, what those links bring l in the bounce
+// after, (T M T e_o)_l with M keeping only the mirrors' links: the part of B_l that a final
+// gather reading the indirect light from the mesh leaves out where it draws the images.
+//
+// Cost: one application of T per emitting object; memory 12 bytes per B unknown and object, and
+// per mirror link and object.
 #pragma once
 
 #include <array>
@@ -21,6 +30,7 @@
 #include <vector>
 
 #include "polyrad/geometry/mesher.h"
+#include "polyrad/scene/brdf.h"
 #include "polyrad/transport/transport.h"
 
 namespace polyrad {
@@ -29,13 +39,33 @@ struct MeshDirect {
   int objects = 0;                          // emitting objects
   std::vector<std::int32_t> column;         // per object: the patch whose emission stands for it
   std::vector<std::array<float, 3>> value;  // (l, o) at l * objects + o, l over the B unknowns
+  // The mirrors' links (empty unless made with materials): per link unknown (its index less the
+  // B unknowns) its row of link_value, -1 for a link not sent by a mirror.
+  std::vector<std::int32_t> link_row;
+  std::vector<std::array<float, 3>> link_value;  // (row, o) at row * objects + o
+  // (l, o) at l * objects + o over the B unknowns: o's light reflected by a mirror to l (empty
+  // unless asked for).
+  std::vector<std::array<float, 3>> mirrored;
 
   const std::array<float, 3>& at(std::int64_t l, int o) const {
     return value[static_cast<std::size_t>(l * objects + o)];
   }
-  std::size_t bytes() const { return value.size() * sizeof(value[0]) + column.size() * 4; }
+  bool has_links() const { return !link_row.empty(); }
+  // The row of link unknown `unknown` (an index into the whole layout), or -1.
+  std::int32_t link_row_of(std::int64_t unknown, std::int64_t b_unknowns) const {
+    return link_row[static_cast<std::size_t>(unknown - b_unknowns)];
+  }
+  const std::array<float, 3>& link_at(std::int32_t row, int o) const {
+    return link_value[static_cast<std::size_t>(row) * objects + o];
+  }
+  std::size_t bytes() const {
+    return (value.size() + link_value.size() + mirrored.size()) * sizeof(value[0]) +
+           (column.size() + link_row.size()) * 4;
+  }
 };
 
-MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches);
+// With materials, the mirrors' links too, and with mirrored their bounce after (above).
+MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
+                       const std::vector<Material>* materials = nullptr, bool mirrored = false);
 
 }  // namespace polyrad
