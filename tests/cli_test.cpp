@@ -418,11 +418,17 @@ TEST(Cli, GatherFlagPicksTheKindAndTheReportSaysWhich) {
     EXPECT_EQ(options->find("kind")->string, *kind ? kind : "final");
     const double expected_points = points ? 4.0 : *kind ? 0.0 : 64.0;  // the final gather's default
     EXPECT_EQ(options->find("reflector_samples")->number, expected_points);
+    // No mirror in the furnace: no images drawn, and the report says so.
+    EXPECT_EQ(options->find("mirror_image_samples")->number, 0.0);
     Image image = read_image(img);
     for (float v : image.rgb) ASSERT_NEAR(v, 2.0, 0.04);
   }
   EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
                 " --gather photon")
+                .code,
+            2);
+  EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
+                " --mirror-images -1")
                 .code,
             2);
   EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +

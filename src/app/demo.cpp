@@ -46,7 +46,9 @@ DemoResult demo(const DemoOptions& f) {
   auto sys = build_system(std::move(loaded), system);
   const World& world = *sys->world;
   const auto& t = sys->transport;
-  const Gather gather = build_gather(world, t.layout(), GatherOptions::final_gather());
+  const GatherOptions gather_options = GatherOptions::final_gather();
+  const Gather gather = build_gather(world, t.layout(), gather_options,
+                                     mesh_direct_for(gather_options, t, world).get());
 
   say("solving iteratively (Gauss-Seidel to a relative residual of 1e-4)");
   SolveResult solution = solve(t, t.emission(), SolveOptions{});

@@ -59,7 +59,7 @@ void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptio
   if (solution.status == SolveStatus::kNotConverged) throw NumericalError(solution.message);
   // A final gather's rows are built block by block where they are applied, never held whole.
   Stopwatch direct_watch;
-  const auto direct = mesh_direct_for(o.gather, t, r.world->patches());
+  const auto direct = mesh_direct_for(o.gather, t, *r.world);
   const double direct_seconds = direct_watch.seconds();
   const Gather gather =
       o.gather.kind == GatherKind::kFinal

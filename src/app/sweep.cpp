@@ -173,7 +173,7 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
   const double system_seconds = watch.seconds();
   const TransportOperator& t = sys->transport;
   const World& world = *sys->world;
-  const auto direct = mesh_direct_for(f.gather, t, world.patches());
+  const auto direct = mesh_direct_for(f.gather, t, world);
   const Gather gather = build_gather(world, t.layout(), f.gather, direct.get());
   const Field e = t.emission();
   const double norm_e = t.flux_norm(e);

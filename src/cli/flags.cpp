@@ -164,6 +164,12 @@ void GatherFlags::add(CLI::App& app) {
                  "samples alone)" +
                      final_only(final.reflector_samples))
       ->check(CLI::Range(0, 4096));
+  app.add_option("--mirror-images", mirror_image_samples,
+                 "Final gather: light points per hit with a diffuse part for the lamps' light "
+                 "that planar mirrors reflect to it, seen at their mirror images (0: the mirrors' "
+                 "specular links carry it)" +
+                     final_only(final.mirror_image_samples))
+      ->check(CLI::Range(0, 4096));
   app.add_option("--near-distance", near_distance,
                  "Final gather: near means within this many diameters of the patch met, blended "
                  "out at twice the distance" +
@@ -183,6 +189,7 @@ GatherOptions GatherFlags::options() const {
   if (gather_samples > 0) o.gather_samples = gather_samples;
   if (near_samples >= 0) o.near_samples = near_samples;
   if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
+  if (mirror_image_samples >= 0) o.mirror_image_samples = mirror_image_samples;
   if (near_distance >= 0.0) o.near_distance = near_distance;
   return o;
 }

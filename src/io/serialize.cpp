@@ -67,6 +67,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("near_samples", o.near_samples)
       .value("near_distance", o.near_distance)
       .value("reflector_samples", o.reflector_samples)
+      .value("mirror_image_samples", o.mirror_image_samples)
       .value("indirect", enum_name(o.indirect))
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
@@ -95,6 +96,9 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the final gather drew points on the reflectors: it drew none.
     if (r.has("reflector_samples"))
       o.reflector_samples = static_cast<int>(r.integer("reflector_samples", 0, 65536));
+    // Written before the final gather drew the mirrors' images of the lamps: it drew none.
+    if (r.has("mirror_image_samples"))
+      o.mirror_image_samples = static_cast<int>(r.integer("mirror_image_samples", 0, 65536));
     // Written before the indirect light could come from the mesh: from rays.
     if (r.has("indirect")) o.indirect = read_enum<IndirectMode>(r, "indirect");
   }

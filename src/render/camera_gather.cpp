@@ -266,6 +266,17 @@ long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& t
 
 using namespace gather_detail;
 
+namespace {
+// Whether any patch of the world is a mirror (a delta lobe).
+bool has_mirror(const World& world) {
+  for (const Patch& p : world.patches().patches) {
+    const Material& m = world.materials()[p.material];
+    if (m.has_lobe() && m.is_delta()) return true;
+  }
+  return false;
+}
+}  // namespace
+
 // The rows of a gather, built for any range of pixels: the shared state (corner averages, light
 // sampler) is made once. Both gathers key their random streams by (pixel, sub-pixel ray), so a
 // row is the same whichever block, thread or call builds it.
@@ -276,23 +287,18 @@ class GatherRows {
              const MeshDirect* direct = nullptr)
       : kept_(std::move(kept)),
         camera_(camera),
-        options_(options),
+        options_(drawn(options, world, kept_ ? kept_.get() : direct)),
+        mirrors_(mirror_planes(
+            world.patches(), world.materials(),
+            options_.kind == GatherKind::kFinal && options_.mirror_image_samples > 0)),
         corners_(world.patches(), corner_weights(world, layout)),
         light_bounds_(world.patches()),
-        reflectors_(world.patches(), reflector_weights(world, layout, options)),
+        reflectors_(world.patches(), reflector_weights(world, layout, options_, mirrors_)),
         diameters_(diameters(world.patches())),
-        context_{camera_,
-                 world.patches(),
-                 world.materials(),
-                 world.caster(),
-                 layout,
-                 options_,
-                 corners_,
-                 world.lights(),
-                 light_bounds_,
-                 reflectors_,
-                 diameters_,
-                 kept_ ? kept_.get() : direct},
+        context_{camera_,       world.patches(), world.materials(), world.caster(),
+                 layout,        options_,        corners_,          world.lights(),
+                 light_bounds_, reflectors_,     diameters_,        kept_ ? kept_.get() : direct,
+                 mirrors_},
         unknowns_(layout.size()),
         patches_(static_cast<std::int64_t>(world.patches().size())) {
     if (options.pixel_grid < 1 || options.pixel_grid > 16)
@@ -311,6 +317,8 @@ class GatherRows {
       throw InputError("final gather: near_distance must not be negative");
     if (options.reflector_samples < 0)
       throw InputError("final gather: reflector_samples must not be negative");
+    if (options.mirror_image_samples < 0)
+      throw InputError("final gather: mirror_image_samples must not be negative");
     if (options.kind == GatherKind::kFinal && options.indirect == IndirectMode::kMesh) {
       if (options.light_samples < 1)
         throw InputError(
@@ -424,14 +432,30 @@ class GatherRows {
     return weight;
   }
   // The reflectors' weights for the final gather's reflector points: the areas of the patches
-  // that send specular links (none unless options ask for the points).
+  // that send specular links (none unless options ask for the points), but for the planar
+  // mirrors where the gather draws their images: what is left of their links, the lamps' light
+  // taken out, changes little from patch to patch, and points on them no longer paid (mirror
+  // cube, hierarchical: relative RMSE 0.0701 with them, 0.0699 without, gather 5.1 s and 4.3).
   static std::vector<double> reflector_weights(const World& world, const UnknownLayout& layout,
-                                               const GatherOptions& options) {
+                                               const GatherOptions& options,
+                                               const MirrorPlanes& mirrors) {
     std::vector<double> weight(world.patches().size(), 0.0);
     if (options.kind != GatherKind::kFinal || options.reflector_samples <= 0) return weight;
     for (size_t p = 0; p < weight.size(); ++p)
-      if (layout.link_start[p + 1] > layout.link_start[p]) weight[p] = world.patches()[p].area;
+      if (layout.link_start[p + 1] > layout.link_start[p] &&
+          (mirrors.empty() || mirrors.plane_of[p] < 0))
+        weight[p] = world.patches()[p].area;
     return weight;
+  }
+  // The options as the rows are built: mirror images only where they can be drawn (a final
+  // gather reading the indirect light by rays, a mirror in the world, and the links' part of
+  // the mesh's direct light to leave out of the links' reads).
+  static GatherOptions drawn(GatherOptions o, const World& world, const MeshDirect* direct) {
+    const bool can = o.kind == GatherKind::kFinal && direct && direct->has_links() &&
+                     has_mirror(world) &&
+                     (o.indirect == IndirectMode::kRays || !direct->mirrored.empty());
+    if (!can) o.mirror_image_samples = 0;
+    return o;
   }
   static std::vector<double> diameters(const PatchSet& patches) {
     std::vector<double> d(patches.size());
@@ -460,6 +484,7 @@ class GatherRows {
   const std::shared_ptr<const MeshDirect> kept_;  // a deferred gather's MeshDirect
   const Camera camera_;
   const GatherOptions options_;
+  const MirrorPlanes mirrors_;
   const CornerAverages corners_;
   const LightBounds light_bounds_;
   const LightSampler reflectors_;
@@ -470,10 +495,13 @@ class GatherRows {
 };
 
 std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
-                                                  const TransportOperator& t,
-                                                  const PatchSet& patches) {
-  if (o.kind != GatherKind::kFinal || o.indirect != IndirectMode::kMesh) return nullptr;
-  return std::make_shared<const MeshDirect>(mesh_direct(t, patches));
+                                                  const TransportOperator& t, const World& world) {
+  if (o.kind != GatherKind::kFinal) return nullptr;
+  const bool mesh = o.indirect == IndirectMode::kMesh;
+  const bool images = o.mirror_image_samples > 0 && t.num_links() > 0 && has_mirror(world);
+  if (!mesh && !images) return nullptr;
+  return std::make_shared<const MeshDirect>(
+      mesh_direct(t, world.patches(), images ? &world.materials() : nullptr, images && mesh));
 }
 
 double link_tolerance_for(GatherKind kind, double chosen) {
@@ -500,7 +528,7 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
   Gather g;
   g.width = camera.width;
   g.height = camera.height;
-  g.options = options;
+  g.options = rows.options();
   Progress progress(options.kind == GatherKind::kFinal ? "final gather" : "camera gather",
                     camera.height);
   GatherRows::Scratch scratch;
@@ -517,9 +545,9 @@ Gather defer_gather(const World& world, const Camera& camera, const UnknownLayou
   Gather g;
   g.width = camera.width;
   g.height = camera.height;
-  g.options = options;
   g.deferred =
       std::make_shared<const GatherRows>(world, camera, layout, options, std::move(direct));
+  g.options = g.deferred->options();
   return g;
 }
 

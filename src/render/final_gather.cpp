@@ -17,6 +17,9 @@
 // part is then estimated without bias on its own, and the weights of a direction sum to one.
 // With reflector_samples, the diffuse part's S_{j->i} has a pair of its own: points drawn by
 // area on the patches that send specular links against the cosine samples.
+// With mirror_image_samples, the lamps' light that a planar mirror reflects to the point is taken
+// from the lamps' images behind the mirrors' planes (mirror_images), and the diffuse part's reads
+// of a mirror's links leave that part out (subtract_mirrored_lights).
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
 // carry their weighted share of Le, and read nothing else (so one whose ray passes no light's
@@ -25,6 +28,7 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <utility>
 
 #include "gather_terms.h"
 #include "polyrad/transport/hierarchy.h"
@@ -50,6 +54,10 @@ class FinalGatherer {
         reflector_side_(static_cast<int>(std::sqrt(static_cast<double>(reflector_count_)))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
         near_count_(near_side_ * near_side_),
+        mirror_side_(c.mirrors.empty() || c.lights.empty() || o_.mirror_image_samples <= 0
+                         ? 0
+                         : grid_side(o_.mirror_image_samples)),
+        mirror_count_(mirror_side_ * mirror_side_),
         mesh_indirect_(o_.indirect == IndirectMode::kMesh) {}
 
   // The pixel: Le of what its emission_grid^2 finer rays see along their mirror chains, and the
@@ -322,7 +330,70 @@ class FinalGatherer {
     // (a mirror chain's later hits do not: the chain shares one stream).
     if (diffuse && !mesh_indirect_ && reflector_count_ > 0)
       rays += reflector_points(sh, nd, rng, terms);
+    if (diffuse && mirror_count_ > 0) rays += mirror_images(sh, rng, terms);
     return rays;
+  }
+
+  // The lamps' light that planar mirrors reflect to x, for the diffuse part: mirror_count_
+  // points drawn on the lights by area, each seen at its image in every mirror plane that x and
+  // the point both face, d s Le cos_x cos_p / (pi |x - p'|^2 pdf_A) where the segment to the
+  // image p' crosses the plane inside the mirror's box, a ray meets the mirror there and a
+  // shadow ray from it reaches p (a path x -> mirror -> p has that length and those cosines).
+  long long mirror_images(const Shading& sh, Rng& rng, PixelTerms& terms) const {
+    const int side = mirror_side_, count = mirror_count_;
+    const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
+    long long rays = 0;
+    for (int s = 0; s < count; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const LightSample l = c_.lights.sample(Vec2((s % side + j1) / side, (s / side + j2) / side));
+      if (!(l.area_pdf > 0.0)) continue;
+      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
+        rays += mirror_image(sh, l, static_cast<std::int32_t>(q), wd, terms);
+    }
+    return rays;
+  }
+
+  // One light point l seen in mirror plane q from x (above), weight wd per unit of the estimate.
+  long long mirror_image(const Shading& sh, const LightSample& l, std::int32_t q, const Rgb& wd,
+                         PixelTerms& terms) const {
+    const MirrorPlanes::Plane& plane = c_.mirrors.planes[static_cast<std::size_t>(q)];
+    const double hx = plane.normal.dot(sh.x) - plane.offset;
+    const double hp = plane.normal.dot(l.point) - plane.offset;
+    if (!(hx > 0.0) || !(hp > 0.0)) return 0;
+    const Vec3 image = l.point - 2.0 * hp * plane.normal;
+    const Vec3 y = sh.x + (hx / (hx + hp)) * (image - sh.x);
+    if ((y.array() < plane.lo.array()).any() || (y.array() > plane.hi.array()).any()) return 0;
+    const Vec3 to = image - sh.x;
+    const double dist2 = to.squaredNorm();
+    const Vec3 wi = to / std::sqrt(dist2);
+    const Vec3 onward = wi - 2.0 * wi.dot(plane.normal) * plane.normal;  // from the mirror to p
+    const double cos_x = wi.dot(sh.frame.n);
+    const double cos_p = -onward.dot(c_.patches[l.patch].normal);
+    if (!(cos_x > 0.0) || !(cos_p > 0.0)) return 0;
+    const Hit h = c_.caster.intersect(c_.caster.origin_from(sh.x, c_.patches[sh.i], wi), wi);
+    if (!h.valid() || !h.front || c_.mirrors.plane_of[h.patch] != q) return 1;
+    if (c_.caster.segment_occluded(h.position, h.patch, l.point, l.patch)) return 2;
+    terms.emission.push_back(
+        {l.patch, scaled(wd * plane.specular, cos_x * cos_p / (dist2 * l.area_pdf))});
+    return 2;
+  }
+
+  // With mirror images, w times the part of S_{j->i} that the lamps' light reflected once by
+  // mirror j puts there (its D, render/mesh_direct.h), taken out of a read of the diffuse part:
+  // the mirror images gave that part at x.
+  void subtract_mirrored_lights(PatchId j, PatchId i, const Rgbf& w, PixelTerms& terms) const {
+    if (mirror_count_ == 0 || c_.mirrors.plane_of[j] < 0) return;
+    const Eigen::Index link = c_.layout.link_unknown(j, i);
+    if (link < 0) return;
+    const MeshDirect& md = *c_.direct;
+    const std::int32_t row = md.link_row_of(link, c_.layout.num_patches);
+    if (row < 0) return;
+    for (int o = 0; o < md.objects; ++o) {
+      const auto& v = md.link_at(row, o);
+      if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f) continue;
+      terms.emission.push_back(
+          {md.column[static_cast<std::size_t>(o)], {-w[0] * v[0], -w[1] * v[1], -w[2] * v[2]}});
+    }
   }
 
   // IndirectMode::kMesh: the diffuse part's light beyond the direct light, from the unknown(s)
@@ -340,7 +411,11 @@ class FinalGatherer {
     for (std::size_t k = first; k < terms.unknowns.size(); ++k) {
       const Term t = terms.unknowns[k];
       for (int o = 0; o < md.objects; ++o) {
-        const auto& v = md.at(t.column, o);
+        std::array<float, 3> v = md.at(t.column, o);
+        if (mirror_count_ > 0) {  // the mirror images give the light the mirrors send l
+          const auto& m = md.mirrored[static_cast<std::size_t>(t.column) * md.objects + o];
+          for (int c = 0; c < 3; ++c) v[c] += m[c];
+        }
         if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f) continue;
         terms.emission.push_back({md.column[static_cast<std::size_t>(o)],
                                   {-t.w[0] * v[0], -t.w[1] * v[1], -t.w[2] * v[2]}});
@@ -364,7 +439,9 @@ class FinalGatherer {
       const double cos_x = seen->cos_x, pdf = seen->pdf;
       const double w =
           kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) / (pdf * count);
-      add_link(r.patch, sh.i, scaled(sh.weight * sh.m.diffuse, w), terms);
+      const Rgbf wl = scaled(sh.weight * sh.m.diffuse, w);
+      add_link(r.patch, sh.i, wl, terms);
+      subtract_mirrored_lights(r.patch, sh.i, wl, terms);
     }
     return rays;
   }
@@ -462,6 +539,7 @@ class FinalGatherer {
       link_mis = power_heuristic(count * pdf,
                                  reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
     add_link(j, sh.i, scaled(w, link_mis), terms);
+    if (cosine) subtract_mirrored_lights(j, sh.i, scaled(w, link_mis), terms);
     const DiffusePoint at = locate(c_, j, h.u, h.v);
     const double near = near_share(sh.x, h.position, at.diameter);
     long long rays = 0;
@@ -568,11 +646,51 @@ class FinalGatherer {
   const GatherContext& c_;
   const GatherOptions& o_;
   const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
-      near_side_, near_count_;
+      near_side_, near_count_, mirror_side_, mirror_count_;
   const bool mesh_indirect_;
 };
 
 }  // namespace
+
+MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
+                           bool enabled) {
+  MirrorPlanes m;
+  if (!enabled) return m;
+  m.plane_of.assign(patches.size(), -1);
+  std::vector<std::pair<ObjectId, MaterialId>> owner;  // per plane
+  const double close = 1e-9 * std::max(patches.scene_diameter, 1e-300);
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    const Patch& patch = patches[p];
+    const Material& mat = materials[patch.material];
+    // A bent quad is no plane: its mirror light stays in the links.
+    if (!mat.has_lobe() || !mat.is_delta() || patch.bend > close) continue;
+    const double offset = patch.normal.dot(patch.centroid);
+    std::size_t q = 0;
+    for (; q < m.planes.size(); ++q)
+      if (owner[q] == std::make_pair(patch.object, patch.material) &&
+          m.planes[q].normal.dot(patch.normal) > 1.0 - 1e-12 &&
+          std::abs(m.planes[q].offset - offset) <= close)
+        break;
+    if (q == m.planes.size()) {
+      m.planes.push_back({patch.normal, offset, patch.centroid, patch.centroid, mat.specular});
+      owner.emplace_back(patch.object, patch.material);
+    }
+    MirrorPlanes::Plane& plane = m.planes[q];
+    for (int k = 0; k < 4; ++k) {
+      plane.lo = plane.lo.cwiseMin(patch.corner[static_cast<std::size_t>(k)]);
+      plane.hi = plane.hi.cwiseMax(patch.corner[static_cast<std::size_t>(k)]);
+    }
+    m.plane_of[p] = static_cast<std::int32_t>(q);
+  }
+  // Grown so that a crossing computed on the plane is not lost to rounding at its edges (the ray
+  // decides whether the mirror is met).
+  const double grow = 1e-6 * patches.scene_diameter;
+  for (auto& plane : m.planes) {
+    plane.lo.array() -= grow;
+    plane.hi.array() += grow;
+  }
+  return m;
+}
 
 long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms) {
   return FinalGatherer(c).gather(x, y, terms);

@@ -66,6 +66,25 @@ class CornerAverages {
   std::vector<std::pair<PatchId, double>> entries_;
 };
 
+// The scene's planar mirrors for the final gather's mirror images: the patches whose material
+// is a delta lobe, grouped by object, material and plane. A light point p seen in plane q lies,
+// for a point in front of it, at p mirrored through the plane; the segment to that image crosses
+// the plane where the mirror must be met (inside the group's box, then by a ray).
+struct MirrorPlanes {
+  struct Plane {
+    Vec3 normal;    // unit, out of the mirrors' front
+    double offset;  // normal . x on the plane
+    Vec3 lo, hi;    // the box of its patches' corners, grown by a little
+    Rgb specular;   // the mirror's reflectance s
+  };
+  std::vector<Plane> planes;
+  std::vector<std::int32_t> plane_of;  // per patch: its plane, -1 if not a mirror
+  bool empty() const { return planes.empty(); }
+};
+// With enabled false, none (the gather draws no mirror images).
+MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
+                           bool enabled);
+
 // Everything a pixel is gathered from. The light sampler draws the patches of the scene's
 // named lights by area (World::lights()): relighting may give any of them any emission, so the
 // choice must not depend on the scene's values. patches are the world's, where rays land; the
@@ -82,7 +101,8 @@ struct GatherContext {
   const LightBounds& light_bounds;  // whether a ray may meet a light (the final gather's kMesh)
   const LightSampler& reflectors;  // the final gather's reflector points (by area)
   const std::vector<double>& diameters;  // per patch, Patch::diameter (asked at every hit)
-  const MeshDirect* direct;              // the final gather's IndirectMode::kMesh; else may be null
+  const MeshDirect* direct;  // the final gather's IndirectMode::kMesh or mirror images; else null
+  const MirrorPlanes& mirrors;  // empty unless the final gather draws mirror images
 };
 
 // Where a hit reads B: (u, v) on patch p and, with a hierarchy, the leaf under it, located once

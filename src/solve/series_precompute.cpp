@@ -535,10 +535,9 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
   blocks = BatchBlocks{};  // not held beside the gather's rows
   progress.finish();
   if (view) {
-    const Gather gather = given_gather
-                              ? *given_gather
-                              : defer_gather(world, world.camera(), t.layout(), o.gather,
-                                             mesh_direct_for(o.gather, t, world.patches()));
+    const Gather gather = given_gather ? *given_gather
+                                       : defer_gather(world, world.camera(), t.layout(), o.gather,
+                                                      mesh_direct_for(o.gather, t, world));
     q.width = gather.width;  // a given gather may be of another camera than the world's
     q.height = gather.height;
     q.gather = gather.options;  // what made the rows
