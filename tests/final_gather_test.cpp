@@ -180,7 +180,7 @@ struct MirroredLamp {
   std::unique_ptr<RadiositySystem> sys;
   SolveResult solution;
 
-  MirroredLamp() {
+  explicit MirroredLamp(const SystemOptions& system = {}) {
     const std::string json = R"({
       "camera": {"position": [60, 50, -60], "look_at": [60, 150, 0], "up": [0, 0, 1],
                  "fov_deg": 14, "width": 64, "height": 16},
@@ -198,7 +198,7 @@ struct MirroredLamp {
         {"name": "light", "material": "black", "emission": [10, 10, 10], "patch_size": 20,
          "polygon": [[-60, 100, -10], [-40, 100, -10], [-40, 100, 10], [-60, 100, 10]]}
       ]})";
-    sys = build_system(World::build(test::scene_from_json(json)));
+    sys = build_system(World::build(test::scene_from_json(json)), system);
     solution = converged(*sys);
   }
 
@@ -220,8 +220,10 @@ struct MirroredLamp {
   }
 };
 
-TEST(FinalGather, MirrorImagesMatchTheMirroredLampPixelByPixel) {
-  MirroredLamp scene;
+// Every pixel of the strip against the exact caustic, with the images and with the links alone;
+// the worst errors as fractions of the peak.
+void expect_mirrored_lamp(const SystemOptions& system, const char* mesh) {
+  MirroredLamp scene(system);
   const Camera& cam = scene.sys->scene().camera;
   GatherOptions images = final_options(), links = final_options();
   images.mirror_image_samples = 1024;  // the caustic's edges, not the images' noise, under test
@@ -242,13 +244,26 @@ TEST(FinalGather, MirrorImagesMatchTheMirroredLampPixelByPixel) {
       worst_links = std::max(worst_links, std::abs(without.rgb[k] - exact));
     }
   std::printf(
-      "mirrored lamp over %d strip pixels (%d lit), peak %.5f: images off by at most %.4f of "
-      "the peak, the links alone %.4f\n",
-      pixels, lit, peak, worst_images / peak, worst_links / peak);
+      "mirrored lamp (%s, %d B unknowns) over %d strip pixels (%d lit), peak %.5f: images off "
+      "by at most %.4f of the peak, the links alone %.4f\n",
+      mesh, scene.sys->transport.num_patches(), pixels, lit, peak, worst_images / peak,
+      worst_links / peak);
   ASSERT_GE(pixels, 200);
   EXPECT_GE(lit, 100);
-  EXPECT_LE(worst_images, 0.02 * peak);
-  EXPECT_GT(worst_links, 0.1 * peak);  // the links spread it over the strip's patches
+  EXPECT_LE(worst_images, 0.02 * peak) << mesh;
+  EXPECT_GT(worst_links, 0.1 * peak) << mesh;  // the links spread it over the strip's patches
+}
+
+TEST(FinalGather, MirrorImagesMatchTheMirroredLampPixelByPixel) {
+  expect_mirrored_lamp({}, "uniform");
+  // The hierarchy's mirror links run between roots, and MeshDirect takes the lamp's share out
+  // of them through the hierarchical operator (eq. H3's rows): the same errors to four digits,
+  // since the strip's light is that link on both meshes (its trees refined to 15 leaves at tau
+  // 0.005 change only what little it sends itself).
+  SystemOptions hierarchical;
+  hierarchical.mesh = MeshKind::kHierarchical;
+  hierarchical.hierarchy.link_tolerance = 0.005;
+  expect_mirrored_lamp(hierarchical, "hierarchical");
 }
 
 // ---- furnaces: E / (1 - a) at every pixel ------------------------------------------------------
@@ -649,6 +664,43 @@ TEST(FinalGather, MeshDirectIsEachLightsFirstBounce) {
       }
     EXPECT_GT(peak, 0.0);
     EXPECT_LT(worst, 1e-5 * peak) << enum_name(mesh);
+    // With the materials, the mirrors' links too, and their bounce after: sum_o of each link's
+    // row times E_o is T e on that link, and sum_o mirrored(l, o) E_o is T applied to the
+    // mirrors' links of T e alone.
+    const MeshDirect dl = mesh_direct(t, sys->patches(), &sys->world->materials(), true);
+    Field links_only = Field::Zero(te.rows(), 3), tm;
+    long long mirror_links = 0;
+    double link_worst = 0.0, link_peak = 0.0;
+    for (std::size_t k = 0; k < dl.link_row.size(); ++k) {
+      const std::int32_t row = dl.link_row[k];
+      const auto u = static_cast<Eigen::Index>(t.num_patches() + static_cast<std::int64_t>(k));
+      if (row < 0) continue;
+      ++mirror_links;
+      links_only.row(u) = te.row(u);
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0.0;
+        for (int o = 0; o < dl.objects; ++o)
+          sum += dl.link_at(row, o)[c] * sys->patches()[dl.column[o]].emission[c];
+        link_worst = std::max(link_worst, std::abs(sum - te(u, c)));
+        link_peak = std::max(link_peak, std::abs(te(u, c)));
+      }
+    }
+    EXPECT_GT(mirror_links, 0) << enum_name(mesh);
+    EXPECT_GT(link_peak, 0.0) << enum_name(mesh);
+    EXPECT_LT(link_worst, 1e-5 * link_peak) << enum_name(mesh);
+    t.apply(links_only, tm);
+    double bounce_worst = 0.0, bounce_peak = 0.0;
+    for (Eigen::Index l = 0; l < t.num_patches(); ++l)
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0.0;
+        for (int o = 0; o < dl.objects; ++o)
+          sum += dl.mirrored[static_cast<std::size_t>(l * dl.objects + o)][c] *
+                 sys->patches()[dl.column[o]].emission[c];
+        bounce_worst = std::max(bounce_worst, std::abs(sum - tm(l, c)));
+        bounce_peak = std::max(bounce_peak, std::abs(tm(l, c)));
+      }
+    EXPECT_GT(bounce_peak, 0.0) << enum_name(mesh);
+    EXPECT_LT(bounce_worst, 1e-5 * bounce_peak) << enum_name(mesh);
     // The gather's use of D: on the first bounce's solution B = E + T e, what each pixel reads
     // from the mesh, B - E - D e, is nothing, so the image is the one with D = 0 read on B = E.
     GatherOptions o = final_options();

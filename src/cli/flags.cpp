@@ -164,11 +164,14 @@ void GatherFlags::add(CLI::App& app) {
                  "samples alone)" +
                      final_only(final.reflector_samples))
       ->check(CLI::Range(0, 4096));
-  app.add_option("--mirror-images", mirror_image_samples,
-                 "Final gather: light points per hit with a diffuse part for the lamps' light "
-                 "that planar mirrors reflect to it, seen at their mirror images (0: the mirrors' "
-                 "specular links carry it)" +
-                     final_only(final.mirror_image_samples))
+  app.add_option(
+         "--mirror-images", mirror_image_samples,
+         "Final gather: light points per hit with a diffuse part for the lamps' light "
+         "that planar mirrors reflect to it, seen at their mirror images (0: the mirrors' "
+         "specular links carry it; default " +
+             number_text(final.mirror_image_samples) + ", " +
+             number_text(GatherOptions::final_gather(IndirectMode::kMesh).mirror_image_samples) +
+             " with --indirect mesh)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--near-distance", near_distance,
                  "Final gather: near means within this many diameters of the patch met, blended "

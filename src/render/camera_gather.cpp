@@ -267,12 +267,12 @@ long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& t
 using namespace gather_detail;
 
 namespace {
-// Whether any patch of the world is a mirror (a delta lobe).
+// Whether the world has a light and a planar mirror for the final gather's mirror images.
 bool has_mirror(const World& world) {
-  for (const Patch& p : world.patches().patches) {
-    const Material& m = world.materials()[p.material];
-    if (m.has_lobe() && m.is_delta()) return true;
-  }
+  if (world.lights().empty()) return false;
+  for (const Patch& p : world.patches().patches)
+    if (is_planar_mirror(p, world.materials()[p.material], world.patches().scene_diameter))
+      return true;
   return false;
 }
 }  // namespace
@@ -331,6 +331,13 @@ class GatherRows {
             "final gather: --indirect mesh needs the mesh's direct light of this "
             "operator (mesh_direct), which this gather was not given");
     }
+    const MeshDirect* given = context_.direct;
+    if (options_.mirror_image_samples > 0 && (given->link_row.size() != layout.links.size() ||
+                                              (options_.indirect == IndirectMode::kMesh &&
+                                               given->mirrored.size() != given->value.size())))
+      throw InputError(
+          "final gather: the mirror images need the mesh's direct light of this operator with "
+          "its mirrors' links (mesh_direct_for), which this gather was not given");
   }
 
   int width() const { return camera_.width; }

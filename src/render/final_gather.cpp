@@ -54,10 +54,8 @@ class FinalGatherer {
         reflector_side_(static_cast<int>(std::sqrt(static_cast<double>(reflector_count_)))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
         near_count_(near_side_ * near_side_),
-        mirror_side_(c.mirrors.empty() || c.lights.empty() || o_.mirror_image_samples <= 0
-                         ? 0
-                         : grid_side(o_.mirror_image_samples)),
-        mirror_count_(mirror_side_ * mirror_side_),
+        mirror_count_(c.mirrors.empty() || c.lights.empty() ? 0 : o_.mirror_image_samples),
+        mirror_side_(static_cast<int>(std::sqrt(static_cast<double>(mirror_count_)))),
         mesh_indirect_(o_.indirect == IndirectMode::kMesh) {}
 
   // The pixel: Le of what its emission_grid^2 finer rays see along their mirror chains, and the
@@ -345,7 +343,9 @@ class FinalGatherer {
     long long rays = 0;
     for (int s = 0; s < count; ++s) {
       const double j1 = rng.uniform32(), j2 = rng.uniform32();
-      const LightSample l = c_.lights.sample(Vec2((s % side + j1) / side, (s / side + j2) / side));
+      const Vec2 u = side * side == count ? Vec2((s % side + j1) / side, (s / side + j2) / side)
+                                          : Vec2((s + j1) / count, j2);
+      const LightSample l = c_.lights.sample(u);
       if (!(l.area_pdf > 0.0)) continue;
       for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
         rays += mirror_image(sh, l, static_cast<std::int32_t>(q), wd, terms);
@@ -646,7 +646,7 @@ class FinalGatherer {
   const GatherContext& c_;
   const GatherOptions& o_;
   const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
-      near_side_, near_count_, mirror_side_, mirror_count_;
+      near_side_, near_count_, mirror_count_, mirror_side_;
   const bool mesh_indirect_;
 };
 
@@ -662,8 +662,9 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
   for (std::size_t p = 0; p < patches.size(); ++p) {
     const Patch& patch = patches[p];
     const Material& mat = materials[patch.material];
-    // A bent quad is no plane: its mirror light stays in the links.
-    if (!mat.has_lobe() || !mat.is_delta() || patch.bend > close) continue;
+    // A bent quad is no plane: its mirror light stays in the links (and MeshDirect gives its
+    // links no row).
+    if (!is_planar_mirror(patch, mat, patches.scene_diameter)) continue;
     const double offset = patch.normal.dot(patch.centroid);
     std::size_t q = 0;
     for (; q < m.planes.size(); ++q)

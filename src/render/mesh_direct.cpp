@@ -25,14 +25,15 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
     const auto i = static_cast<int>(l);
     object_of[l] = patches[h ? h->elements()[h->element_of_leaf(i)].root : i].object;
   }
-  // The links sent by a mirror, each given a row.
+  // The links sent by a planar mirror, each given a row.
   const std::vector<Link>& links = t.layout().links;
   if (materials && !links.empty()) {
     d.link_row.assign(links.size(), -1);
     std::int32_t rows = 0;
     for (std::size_t l = 0; l < links.size(); ++l) {
-      const Material& m = (*materials)[patches[links[l].from].material];
-      if (m.has_lobe() && m.is_delta()) d.link_row[l] = rows++;
+      const Patch& from = patches[links[l].from];
+      if (is_planar_mirror(from, (*materials)[from.material], patches.scene_diameter))
+        d.link_row[l] = rows++;
     }
     d.link_value.assign(static_cast<std::size_t>(rows) * d.objects, {0.0f, 0.0f, 0.0f});
     if (mirrored) d.mirrored.assign(d.value.size(), {0.0f, 0.0f, 0.0f});

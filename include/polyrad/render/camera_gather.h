@@ -149,10 +149,10 @@ struct GatherOptions {
   // mirror cube's error the same as with 64, in 3.5 s less); and the light points are the only
   // noise left in the direct light: 32 kept the error of 64 on the three cornell scenes
   // (hierarchical; 16 raised the mirror cube's by 0.004) in two fifths less gather time.
-  // Mirror images as many as light points: on the mirror cube, uniform 17 0.0824 -> 0.0697,
-  // hierarchical 0.0788 -> 0.0701, and with the indirect light from the mesh 0.0817 -> 0.0761
+  // Mirror images as many as light points: on the mirror cube, uniform 17 0.0824 -> 0.0694,
+  // hierarchical 0.0788 -> 0.0699, and with the indirect light from the mesh 0.0817 -> 0.0761
   // (32 and 64 the same, 16 0.0763); on the room 16 gave 0.0528 and 64 0.0518 against 0.0526
-  // without (README, "Mirror images").
+  // without (README, "Mirror images of the lamps").
   static GatherOptions final_gather(IndirectMode indirect = IndirectMode::kRays) {
     GatherOptions o;
     o.kind = GatherKind::kFinal;
@@ -204,8 +204,8 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
                     const GatherOptions& options = {}, const MeshDirect* direct = nullptr);
 
 // What a gather with options o needs of operator t: its MeshDirect for a final gather with
-// IndirectMode::kMesh, or with mirror images where the world has mirrors that send links (one
-// application of T per emitting object), else null.
+// IndirectMode::kMesh, or with mirror images where the world has planar mirrors that send links
+// (one application of T per emitting object, two for both), else null.
 std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
                                                   const TransportOperator& t, const World& world);
 

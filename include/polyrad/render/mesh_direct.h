@@ -13,13 +13,13 @@
 //   MeshDirect d = mesh_direct(sys->transport, world->patches());
 //   Gather g = build_gather(*world, t.layout(), options, &d);
 //
-// With the scene's materials it also holds, for each link unknown S_{j->i} sent by a mirror j
-// (a delta lobe), the same for that link: (T e_o)_{j->i} = s_j sum_{k in o} R_kji, the part of
-// S_{j->i} that is o's light reflected once by j. The final gather's mirror images (render/
-// camera_gather.h) take that part at the pixel itself, so its reads of those links leave it out.
-// With `mirrored` as well, per B unknown l and object o, what those links bring l in the bounce
-// after, (T M T e_o)_l with M keeping only the mirrors' links: the part of B_l that a final
-// gather reading the indirect light from the mesh leaves out where it draws the images.
+// With the scene's materials it also holds, for each link unknown S_{j->i} sent by a planar
+// mirror j (a delta lobe, is_planar_mirror), the same for that link: (T e_o)_{j->i} = s_j sum_{k in
+// o} R_kji, the part of S_{j->i} that is o's light reflected once by j. The final gather's mirror
+// images (render/ camera_gather.h) take that part at the pixel itself, so its reads of those links
+// leave it out. With `mirrored` as well, per B unknown l and object o, what those links bring l in
+// the bounce after, (T M T e_o)_l with M keeping only the mirrors' links: the part of B_l that a
+// final gather reading the indirect light from the mesh leaves out where it draws the images.
 //
 // Cost: one application of T per emitting object; memory 12 bytes per B unknown and object, and
 // per mirror link and object.
@@ -64,7 +64,15 @@ struct MeshDirect {
   }
 };
 
-// With materials, the mirrors' links too, and with mirrored their bounce after (above).
+// A planar mirror patch: a delta lobe on a patch that lies in one plane (to 1e-9 of the scene's
+// size; a bent quad does not). The final gather draws the images of the lamps in these only, so
+// only their links have rows here.
+inline bool is_planar_mirror(const Patch& p, const Material& m, double scene_diameter) {
+  return m.has_lobe() && m.is_delta() && p.bend <= 1e-9 * scene_diameter;
+}
+
+// With materials, the planar mirrors' links too, and with mirrored their bounce after (above).
+// One application of T per emitting object, two with mirrored.
 MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
                        const std::vector<Material>* materials = nullptr, bool mirrored = false);
 
