@@ -43,6 +43,16 @@ Image gather_image(const RadiositySystem& sys, const Field& u, const GatherOptio
   return apply_gather(g, u, scene_emission(sys.patches()));
 }
 
+// The largest difference between what is got and what is wanted over many entries, and the
+// largest wanted.
+struct Gap {
+  double worst = 0.0, peak = 0.0;
+  void add(double got, double want) {
+    worst = std::max(worst, std::abs(got - want));
+    peak = std::max(peak, std::abs(want));
+  }
+};
+
 // ---- the penumbra of a square occluder under a square lamp ------------------------------------
 
 // Form factor from a differential area to a parallel rectangle with the normal through one
@@ -230,7 +240,7 @@ void expect_mirrored_lamp(const SystemOptions& system, const char* mesh) {
   links.mirror_image_samples = 0;
   const Image with = gather_image(*scene.sys, scene.solution.u, images);
   const Image without = gather_image(*scene.sys, scene.solution.u, links);
-  double peak = 0.0, worst_images = 0.0, worst_links = 0.0;
+  Gap images_gap, links_gap;
   int pixels = 0, lit = 0;
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
@@ -238,11 +248,12 @@ void expect_mirrored_lamp(const SystemOptions& system, const char* mesh) {
       if (std::isnan(exact)) continue;
       ++pixels;
       lit += exact > 0.0;
-      peak = std::max(peak, exact);
       const std::size_t k = 3 * (static_cast<std::size_t>(y) * cam.width + x);
-      worst_images = std::max(worst_images, std::abs(with.rgb[k] - exact));
-      worst_links = std::max(worst_links, std::abs(without.rgb[k] - exact));
+      images_gap.add(with.rgb[k], exact);
+      links_gap.add(without.rgb[k], exact);
     }
+  const double peak = images_gap.peak, worst_images = images_gap.worst;
+  const double worst_links = links_gap.worst;
   std::printf(
       "mirrored lamp (%s, %d B unknowns) over %d strip pixels (%d lit), peak %.5f: images off "
       "by at most %.4f of the peak, the links alone %.4f\n",
@@ -651,56 +662,52 @@ TEST(FinalGather, MeshDirectIsEachLightsFirstBounce) {
     const TransportOperator& t = sys->transport;
     const MeshDirect d = mesh_direct(t, sys->patches());
     ASSERT_EQ(d.objects, 6);
+    // sum_o v(o)[c] E_o[c]: per-object values under the scene's lights.
+    const auto lit = [&](const MeshDirect& m, const auto& v, int c) {
+      double sum = 0.0;
+      for (int o = 0; o < m.objects; ++o) sum += v(o)[c] * sys->patches()[m.column[o]].emission[c];
+      return sum;
+    };
     Field te;
     t.apply(t.emission(), te);
-    double worst = 0.0, peak = 0.0;
+    Gap first;
     for (Eigen::Index l = 0; l < t.num_patches(); ++l)
-      for (int c = 0; c < 3; ++c) {
-        double sum = 0.0;
-        for (int o = 0; o < d.objects; ++o)
-          sum += d.at(l, o)[c] * sys->patches()[d.column[o]].emission[c];
-        worst = std::max(worst, std::abs(sum - te(l, c)));
-        peak = std::max(peak, std::abs(te(l, c)));
-      }
-    EXPECT_GT(peak, 0.0);
-    EXPECT_LT(worst, 1e-5 * peak) << enum_name(mesh);
+      for (int c = 0; c < 3; ++c)
+        first.add(lit(
+                      d, [&](int o) { return d.at(l, o); }, c),
+                  te(l, c));
+    EXPECT_GT(first.peak, 0.0);
+    EXPECT_LT(first.worst, 1e-5 * first.peak) << enum_name(mesh);
     // With the materials, the mirrors' links too, and their bounce after: sum_o of each link's
     // row times E_o is T e on that link, and sum_o mirrored(l, o) E_o is T applied to the
     // mirrors' links of T e alone.
     const MeshDirect dl = mesh_direct(t, sys->patches(), &sys->world->materials(), true);
     Field links_only = Field::Zero(te.rows(), 3), tm;
     long long mirror_links = 0;
-    double link_worst = 0.0, link_peak = 0.0;
+    Gap links;
     for (std::size_t k = 0; k < dl.link_row.size(); ++k) {
       const std::int32_t row = dl.link_row[k];
       const auto u = static_cast<Eigen::Index>(t.num_patches() + static_cast<std::int64_t>(k));
       if (row < 0) continue;
       ++mirror_links;
       links_only.row(u) = te.row(u);
-      for (int c = 0; c < 3; ++c) {
-        double sum = 0.0;
-        for (int o = 0; o < dl.objects; ++o)
-          sum += dl.link_at(row, o)[c] * sys->patches()[dl.column[o]].emission[c];
-        link_worst = std::max(link_worst, std::abs(sum - te(u, c)));
-        link_peak = std::max(link_peak, std::abs(te(u, c)));
-      }
+      for (int c = 0; c < 3; ++c)
+        links.add(lit(
+                      dl, [&](int o) { return dl.link_at(row, o); }, c),
+                  te(u, c));
     }
     EXPECT_GT(mirror_links, 0) << enum_name(mesh);
-    EXPECT_GT(link_peak, 0.0) << enum_name(mesh);
-    EXPECT_LT(link_worst, 1e-5 * link_peak) << enum_name(mesh);
+    EXPECT_GT(links.peak, 0.0) << enum_name(mesh);
+    EXPECT_LT(links.worst, 1e-5 * links.peak) << enum_name(mesh);
     t.apply(links_only, tm);
-    double bounce_worst = 0.0, bounce_peak = 0.0;
+    Gap bounce;
     for (Eigen::Index l = 0; l < t.num_patches(); ++l)
-      for (int c = 0; c < 3; ++c) {
-        double sum = 0.0;
-        for (int o = 0; o < dl.objects; ++o)
-          sum += dl.mirrored[static_cast<std::size_t>(l * dl.objects + o)][c] *
-                 sys->patches()[dl.column[o]].emission[c];
-        bounce_worst = std::max(bounce_worst, std::abs(sum - tm(l, c)));
-        bounce_peak = std::max(bounce_peak, std::abs(tm(l, c)));
-      }
-    EXPECT_GT(bounce_peak, 0.0) << enum_name(mesh);
-    EXPECT_LT(bounce_worst, 1e-5 * bounce_peak) << enum_name(mesh);
+      for (int c = 0; c < 3; ++c)
+        bounce.add(lit(
+                       dl, [&](int o) { return dl.mirrored_at(l, o); }, c),
+                   tm(l, c));
+    EXPECT_GT(bounce.peak, 0.0) << enum_name(mesh);
+    EXPECT_LT(bounce.worst, 1e-5 * bounce.peak) << enum_name(mesh);
     // The gather's use of D: on the first bounce's solution B = E + T e, what each pixel reads
     // from the mesh, B - E - D e, is nothing, so the image is the one with D = 0 read on B = E.
     GatherOptions o = final_options();

@@ -54,7 +54,8 @@ class FinalGatherer {
         reflector_side_(static_cast<int>(std::sqrt(static_cast<double>(reflector_count_)))),
         near_side_(o_.near_samples > 0 ? grid_side(o_.near_samples) : 0),
         near_count_(near_side_ * near_side_),
-        mirror_count_(c.mirrors.empty() || c.lights.empty() ? 0 : o_.mirror_image_samples),
+        // GatherRows leaves the count only where the world has lights and planar mirrors.
+        mirror_count_(o_.mirror_image_samples),
         mirror_side_(static_cast<int>(std::sqrt(static_cast<double>(mirror_count_)))),
         mesh_indirect_(o_.indirect == IndirectMode::kMesh) {}
 
@@ -413,7 +414,7 @@ class FinalGatherer {
       for (int o = 0; o < md.objects; ++o) {
         std::array<float, 3> v = md.at(t.column, o);
         if (mirror_count_ > 0) {  // the mirror images give the light the mirrors send l
-          const auto& m = md.mirrored[static_cast<std::size_t>(t.column) * md.objects + o];
+          const auto& m = md.mirrored_at(t.column, o);
           for (int c = 0; c < 3; ++c) v[c] += m[c];
         }
         if (v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f) continue;
@@ -538,8 +539,9 @@ class FinalGatherer {
     if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0)
       link_mis = power_heuristic(count * pdf,
                                  reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
-    add_link(j, sh.i, scaled(w, link_mis), terms);
-    if (cosine) subtract_mirrored_lights(j, sh.i, scaled(w, link_mis), terms);
+    const Rgbf wl = scaled(w, link_mis);
+    add_link(j, sh.i, wl, terms);
+    if (cosine) subtract_mirrored_lights(j, sh.i, wl, terms);
     const DiffusePoint at = locate(c_, j, h.u, h.v);
     const double near = near_share(sh.x, h.position, at.diameter);
     long long rays = 0;

@@ -7,6 +7,12 @@
 
 namespace polyrad {
 
+namespace {
+std::array<float, 3> row_of(const Field& f, Eigen::Index r) {
+  return {static_cast<float>(f(r, 0)), static_cast<float>(f(r, 1)), static_cast<float>(f(r, 2))};
+}
+}  // namespace
+
 MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
                        const std::vector<Material>* materials, bool mirrored) {
   MeshDirect d;
@@ -45,29 +51,19 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
       if (object_of[l] == object) unit[l] = Rgb::Ones();
     t.apply(t.emission(unit), out);
     for (std::int64_t l = 0; l < b; ++l)
-      d.value[static_cast<std::size_t>(l * d.objects + o)] = {static_cast<float>(out(l, 0)),
-                                                              static_cast<float>(out(l, 1)),
-                                                              static_cast<float>(out(l, 2))};
-    for (std::size_t l = 0; l < d.link_row.size(); ++l)
-      if (d.link_row[l] >= 0) {
-        const auto u = static_cast<Eigen::Index>(b + static_cast<std::int64_t>(l));
-        d.link_value[static_cast<std::size_t>(d.link_row[l]) * d.objects + o] = {
-            static_cast<float>(out(u, 0)), static_cast<float>(out(u, 1)),
-            static_cast<float>(out(u, 2))};
-      }
+      d.value[static_cast<std::size_t>(l * d.objects + o)] = row_of(out, l);
+    // The mirrors' links, and for the bounce after T applied to them alone.
+    if (!d.mirrored.empty()) links_only = Field::Zero(out.rows(), 3);
+    for (std::size_t l = 0; l < d.link_row.size(); ++l) {
+      if (d.link_row[l] < 0) continue;
+      const auto u = static_cast<Eigen::Index>(b + static_cast<std::int64_t>(l));
+      d.link_value[static_cast<std::size_t>(d.link_row[l]) * d.objects + o] = row_of(out, u);
+      if (!d.mirrored.empty()) links_only.row(u) = out.row(u);
+    }
     if (d.mirrored.empty()) continue;
-    // The bounce after: T applied to the mirrors' links alone.
-    links_only = Field::Zero(out.rows(), 3);
-    for (std::size_t l = 0; l < d.link_row.size(); ++l)
-      if (d.link_row[l] >= 0) {
-        const auto u = static_cast<Eigen::Index>(b + static_cast<std::int64_t>(l));
-        links_only.row(u) = out.row(u);
-      }
     t.apply(links_only, again);
     for (std::int64_t l = 0; l < b; ++l)
-      d.mirrored[static_cast<std::size_t>(l * d.objects + o)] = {static_cast<float>(again(l, 0)),
-                                                                 static_cast<float>(again(l, 1)),
-                                                                 static_cast<float>(again(l, 2))};
+      d.mirrored[static_cast<std::size_t>(l * d.objects + o)] = row_of(again, l);
   }
   return d;
 }

@@ -58,6 +58,9 @@ struct MeshDirect {
   const std::array<float, 3>& link_at(std::int32_t row, int o) const {
     return link_value[static_cast<std::size_t>(row) * objects + o];
   }
+  const std::array<float, 3>& mirrored_at(std::int64_t l, int o) const {
+    return mirrored[static_cast<std::size_t>(l * objects + o)];
+  }
   std::size_t bytes() const {
     return (value.size() + link_value.size() + mirrored.size()) * sizeof(value[0]) +
            (column.size() + link_row.size()) * 4;
