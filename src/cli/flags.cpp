@@ -178,6 +178,17 @@ void GatherFlags::add(CLI::App& app) {
                  "out at twice the distance" +
                      final_only(final.near_distance))
       ->check(CLI::Range(0.0, 1e9));
+  const GatherOptions mesh = GatherOptions::final_gather(IndirectMode::kMesh);
+  app.add_option("--mesh-near-distance", mesh_near_distance,
+                 "Final gather with --indirect mesh: a point within this many diameters of "
+                 "another surface, measured from the unknown under it, is gathered by rays "
+                 "instead of read from that unknown (0: read the mesh everywhere; default " +
+                     number_text(mesh.mesh_near_distance) + ")")
+      ->check(CLI::Range(0.0, 1e9));
+  app.add_option("--mesh-near-samples", mesh_near_samples,
+                 "Final gather with --indirect mesh: cosine samples at such a point (default " +
+                     number_text(mesh.mesh_near_samples) + ")")
+      ->check(CLI::Range(1, 4096));
 }
 
 GatherOptions GatherFlags::options() const {
@@ -194,6 +205,8 @@ GatherOptions GatherFlags::options() const {
   if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
   if (mirror_image_samples >= 0) o.mirror_image_samples = mirror_image_samples;
   if (near_distance >= 0.0) o.near_distance = near_distance;
+  if (mesh_near_distance >= 0.0) o.mesh_near_distance = mesh_near_distance;
+  if (mesh_near_samples > 0) o.mesh_near_samples = mesh_near_samples;
   return o;
 }
 

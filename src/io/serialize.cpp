@@ -69,6 +69,8 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("reflector_samples", o.reflector_samples)
       .value("mirror_image_samples", o.mirror_image_samples)
       .value("indirect", enum_name(o.indirect))
+      .value("mesh_near_distance", o.mesh_near_distance)
+      .value("mesh_near_samples", o.mesh_near_samples)
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
 }
@@ -101,6 +103,13 @@ GatherOptions read_gather_options(const JsonValue& v) {
       o.mirror_image_samples = static_cast<int>(r.integer("mirror_image_samples", 0, 65536));
     // Written before the indirect light could come from the mesh: from rays.
     if (r.has("indirect")) o.indirect = read_enum<IndirectMode>(r, "indirect");
+    // Written before the mesh's near points were gathered by rays: the mesh read everywhere.
+    if (r.has("mesh_near_distance")) {
+      o.mesh_near_distance = r.number("mesh_near_distance");
+      if (!(o.mesh_near_distance >= 0.0 && o.mesh_near_distance < 1e300))
+        throw InputError(v.where, "the gather's mesh_near_distance is out of range");
+      o.mesh_near_samples = static_cast<int>(r.integer("mesh_near_samples", 1, 65536));
+    }
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

@@ -23,7 +23,8 @@
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
 // carry their weighted share of Le, and read nothing else (so one whose ray passes no light's
-// box, LightBounds, is not cast).
+// box, LightBounds, is not cast). A hit near another surface (near_surface) is gathered by rays
+// instead, as without kMesh.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -57,7 +58,8 @@ class FinalGatherer {
         // GatherRows leaves the count only where the world has lights and planar mirrors.
         mirror_count_(o_.mirror_image_samples),
         mirror_side_(static_cast<int>(std::sqrt(static_cast<double>(mirror_count_)))),
-        mesh_indirect_(o_.indirect == IndirectMode::kMesh) {}
+        mesh_indirect_(o_.indirect == IndirectMode::kMesh),
+        mesh_near_side_(grid_side(o_.mesh_near_samples)) {}
 
   // The pixel: Le of what its emission_grid^2 finer rays see along their mirror chains, and the
   // light reflected there from its pixel_grid^2 shading rays. Each shading ray stands for the
@@ -318,17 +320,24 @@ class FinalGatherer {
     const bool diffuse = d.maxCoeff() > 0.0;
     const bool lobe = sh.m.has_lobe() && !sh.m.is_delta();
     if (!diffuse && !lobe) return 0;
-    const int nd = diffuse ? diffuse_side_ * diffuse_side_ : 0;
-    const int ns = lobe ? lobe_side_ * lobe_side_ : 0;
     long long rays = 0;
+    // Where the diffuse part's indirect light comes from: with kMesh the unknown under x, unless
+    // x lies near a surface; then, as without kMesh, rays (with their own count).
+    bool from_mesh = mesh_indirect_;
+    int side = diffuse_side_;
+    if (diffuse && from_mesh && near_surface(sh, rng, rays)) {
+      from_mesh = false;
+      side = mesh_near_side_;
+    }
+    const int nd = diffuse ? side * side : 0;
+    const int ns = lobe ? lobe_side_ * lobe_side_ : 0;
     if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
-    if (diffuse && mesh_indirect_) mesh_reflected(sh, terms);
-    if (diffuse) rays += cosine_samples(sh, nd, rng, terms);
+    if (diffuse && from_mesh) mesh_reflected(sh, terms);
+    if (diffuse) rays += cosine_samples(sh, side, from_mesh, rng, terms);
     if (lobe) rays += lobe_samples(sh, ns, rng, terms);
     // After this hit's other samples, so that they draw the same numbers with or without these
     // (a mirror chain's later hits do not: the chain shares one stream).
-    if (diffuse && !mesh_indirect_ && reflector_count_ > 0)
-      rays += reflector_points(sh, nd, rng, terms);
+    if (diffuse && !from_mesh && reflector_count_ > 0) rays += reflector_points(sh, nd, rng, terms);
     if (diffuse && mirror_count_ > 0) rays += mirror_images(sh, rng, terms);
     return rays;
   }
@@ -479,10 +488,33 @@ class FinalGatherer {
     return rays;
   }
 
+  // kMesh: whether a surface lies within mesh_near_distance diameters of the unknown under x, by
+  // up to kNearProbes cosine rays (the first that finds one ends the search; each adds to rays).
+  // The unknown's B is its mean over its area: near another surface the light arriving changes
+  // across it, and the mean is the wrong value at x (on the mirror cube's hierarchy, 4, 8 and 16
+  // probes gave relative RMSE 0.0695, 0.0694 and 0.0691).
+  static constexpr int kNearProbes = 8;
+  bool near_surface(const Shading& sh, Rng& rng, long long& rays) const {
+    if (!(o_.mesh_near_distance > 0.0)) return false;
+    const double reach = o_.mesh_near_distance * locate(c_, sh.i, sh.u, sh.v).diameter;
+    for (int s = 0; s < kNearProbes; ++s) {
+      const double j1 = rng.uniform32(), j2 = rng.uniform32();
+      const Vec3 wi = sample_cosine_hemisphere(Vec2((s % 4 + j1) / 4, (s / 4 + j2) / 2));
+      if (!(wi.z() > 0.0)) continue;
+      ++rays;
+      const Vec3 dir = sh.frame.to_world(wi);  // a short ray, asked only whether it meets any
+      if (c_.caster.occluded(c_.caster.origin_from(sh.x, c_.patches[sh.i], dir), dir, 0.0, reach))
+        return true;
+    }
+    return false;
+  }
+
   // The diffuse part: d (cosine-weighted mean of the arriving radiance), by a stratified grid
-  // of cosine samples.
-  long long cosine_samples(const Shading& sh, int count, Rng& rng, PixelTerms& terms) const {
-    const int side = diffuse_side_;
+  // of side x side cosine samples; from_mesh: the mesh gave the indirect light (kMesh), so they
+  // only find the lights.
+  long long cosine_samples(const Shading& sh, int side, bool from_mesh, Rng& rng,
+                           PixelTerms& terms) const {
+    const int count = side * side;
     long long rays = 0;
     const Rgb w = sh.weight * sh.m.diffuse / count;
     for (int s = 0; s < count; ++s) {
@@ -493,11 +525,11 @@ class FinalGatherer {
       // With the mesh's indirect light such a sample can only add a light's Le: one that no
       // light's box lies along finds nothing, and is not traced.
       const Vec3 origin = c_.caster.origin_from(sh.x, c_.patches[sh.i], dir);
-      if (mesh_indirect_ && !c_.light_bounds.may_meet(origin, dir)) continue;
+      if (from_mesh && !c_.light_bounds.may_meet(origin, dir)) continue;
       ++rays;
       const Hit h = c_.caster.intersect(origin, dir);
       if (!h.valid() || !h.front) continue;
-      if (mesh_indirect_) {  // the mesh gave the rest: only a light's weighted share of Le
+      if (from_mesh) {  // the mesh gave the rest: only a light's weighted share of Le
         add_emission(sh, h, dir, w, wi.z() * kInvPi, count, terms);
         continue;
       }
@@ -650,6 +682,7 @@ class FinalGatherer {
   const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
       near_side_, near_count_, mirror_count_, mirror_side_;
   const bool mesh_indirect_;
+  const int mesh_near_side_;
 };
 
 }  // namespace

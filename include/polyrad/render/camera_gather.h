@@ -36,7 +36,8 @@
 // With IndirectMode::kMesh the diffuse part's first bounce is not gathered: at a hit on unknown
 // l it is read as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it
 // directly (render/mesh_direct.h), and the cosine samples only weigh the lights they meet
-// against the light points. A glossy part's lobe samples, and a chain that reaches
+// against the light points; but where a surface lies within mesh_near_distance diameters of l,
+// the point is gathered by rays as above. A glossy part's lobe samples, and a chain that reaches
 // mirror_depth, still read the mesh where they land, as with rays.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
@@ -51,10 +52,11 @@
 // light samples + gather samples (diffuse part, + reflector samples where a scene has them)
 // + lobe samples (glossy part) + 2 rays per mirror image (a light point and a mirror plane whose
 // outline lets it through), and 2 near_samples more where a sample lands near: about 760
-// rays a pixel on cornell-box with the defaults. Memory 16 bytes per entry after merging each
-// pixel's equal columns (a final gather: about 190 entries a pixel on cornell-box, 12 million
-// for 256 x 256); a deferred gather (defer_gather) is never stored whole, its rows are built
-// block by block where they are used.
+// rays a pixel on cornell-box with the defaults. With kMesh, up to 8 short probe rays per hit
+// with a diffuse part, and where they find a surface mesh_near_samples cosine samples as above.
+// Memory 16 bytes per entry after merging each pixel's equal columns (a final gather: about 190
+// entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather (defer_gather) is
+// never stored whole, its rows are built block by block where they are used.
 #pragma once
 
 #include <array>
@@ -132,12 +134,21 @@ struct GatherOptions {
   // direct light (mesh_direct_for); without it the gather reads the links whole and says so in
   // Gather::options (mirror_image_samples 0).
   int mirror_image_samples = 0;
-  // Final gather: kMesh reads the diffuse part's indirect light from the unknown under each hit;
-  // the cosine samples then only find the lights (the light points' partner) and no reflector
-  // points are drawn: the pixel's direct light is its own, the rest is the mesh's, with the
-  // mesh's error (a fine mesh's is below the rays' noise, a coarse one's above it). It needs the
-  // mesh's direct light (MeshDirect) where the gather is built.
+  // Final gather: kMesh reads the diffuse part's indirect light from the unknown under each hit
+  // (but near other surfaces: mesh_near_distance); the cosine samples then only find the lights
+  // (the light points' partner) and no reflector points are drawn: the pixel's direct light is its
+  // own, the rest is the mesh's, with the mesh's error (a fine mesh's is below the rays' noise, a
+  // coarse one's above it). It needs the mesh's direct light (MeshDirect) where the gather is
+  // built.
   IndirectMode indirect = IndirectMode::kRays;
+  // Final gather, kMesh: where a surface lies within mesh_near_distance diameters of the unknown
+  // under a point (found by a few cosine rays), that unknown's mean is the wrong value there
+  // (the light arriving changes across it: the wall beside a corner fills more of the sky the
+  // closer the point), and the point's diffuse part is gathered as kRays gathers it, by
+  // mesh_near_samples cosine samples (rounded to a square) reading the mesh one bounce away.
+  // 0: the mesh is read at every point.
+  double mesh_near_distance = 0.0;
+  int mesh_near_samples = 64;
   std::uint64_t seed = 11;
 
   // The final gather with the counts the sample study chose (README, "The final gather"):
@@ -152,7 +163,10 @@ struct GatherOptions {
   // Mirror images as many as light points: on the mirror cube, uniform 17 0.0824 -> 0.0694,
   // hierarchical 0.0788 -> 0.0699, and with the indirect light from the mesh 0.0817 -> 0.0761
   // (32 and 64 the same, 16 0.0763); on the room 16 gave 0.0528 and 64 0.0518 against 0.0526
-  // without (README, "Mirror images of the lamps").
+  // without (README, "Mirror images of the lamps"). With the indirect light from the mesh, points
+  // within 2 diameters of a surface are gathered by 64 rays: on the hierarchy, relative RMSE
+  // cornell-box 0.0594 -> 0.0455, cornell-glossy 0.0682 -> 0.0620, the mirror cube 0.0761 ->
+  // 0.0694, for 1.0, 0.6 and 0.8 s more gather (README, "Near surfaces, rays").
   static GatherOptions final_gather(IndirectMode indirect = IndirectMode::kRays) {
     GatherOptions o;
     o.kind = GatherKind::kFinal;
@@ -161,6 +175,7 @@ struct GatherOptions {
     o.light_samples = indirect == IndirectMode::kMesh ? 32 : 64;
     o.reflector_samples = indirect == IndirectMode::kMesh ? 0 : 64;  // kMesh draws none
     o.mirror_image_samples = indirect == IndirectMode::kMesh ? 32 : 64;
+    o.mesh_near_distance = indirect == IndirectMode::kMesh ? 2.0 : 0.0;
     o.indirect = indirect;
     return o;
   }
