@@ -2,6 +2,7 @@
 #include "flags.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -180,9 +181,10 @@ void GatherFlags::add(CLI::App& app) {
       ->check(CLI::Range(0.0, 1e9));
   const GatherOptions mesh = GatherOptions::final_gather(IndirectMode::kMesh);
   app.add_option("--mesh-near-distance", mesh_near_distance,
-                 "Final gather with --indirect mesh: a point within this many diameters of "
-                 "another surface, measured from the unknown under it, is gathered by rays "
-                 "instead of read from that unknown (0: read the mesh everywhere; default " +
+                 "Final gather with --indirect mesh: a point where one of up to 8 cosine probes, "
+                 "this many times the diameter of the unknown under it long, meets a surface is "
+                 "gathered by rays instead of read from that unknown (0: read the mesh "
+                 "everywhere; default " +
                      number_text(mesh.mesh_near_distance) + ")")
       ->check(CLI::Range(0.0, 1e9));
   app.add_option("--mesh-near-samples", mesh_near_samples,
@@ -192,6 +194,9 @@ void GatherFlags::add(CLI::App& app) {
 }
 
 GatherOptions GatherFlags::options() const {
+  // CLI::Range lets NaN through, and NaN would read as "not given".
+  if (std::isnan(near_distance) || std::isnan(mesh_near_distance))
+    throw InputError("--near-distance and --mesh-near-distance take a number, not NaN");
   if (kind == GatherKind::kPatch && indirect == IndirectMode::kMesh)
     throw InputError("--indirect mesh is a final gather's: the patch gather reads the mesh alone");
   GatherOptions o =

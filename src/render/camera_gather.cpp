@@ -600,8 +600,9 @@ double gather_memory(const GatherOptions& o, std::int64_t pixels, bool deferred)
   const double rays = static_cast<double>(o.pixel_grid) * o.pixel_grid;
   // With the mesh's near points gathered by rays, as if half the points were (cornell-box on its
   // uniform mesh: 129 entries a pixel against 144).
-  const double samples =
-      o.gather_samples + (o.mesh_near_distance > 0.0 ? 0.5 * o.mesh_near_samples : 0.0);
+  const bool near = o.kind == GatherKind::kFinal && o.indirect == IndirectMode::kMesh &&
+                    o.mesh_near_distance > 0.0;
+  const double samples = o.gather_samples + (near ? 0.5 * o.mesh_near_samples : 0.0);
   const double entries = o.kind == GatherKind::kFinal ? 0.75 * rays * samples : 1.75 * rays;
   const double per_pixel_buffers = 48.0;  // the image and the apply's double sums
   const auto p = static_cast<double>(pixels);

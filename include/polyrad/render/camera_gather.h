@@ -53,7 +53,8 @@
 // + lobe samples (glossy part) + 2 rays per mirror image (a light point and a mirror plane whose
 // outline lets it through), and 2 near_samples more where a sample lands near: about 760
 // rays a pixel on cornell-box with the defaults. With kMesh, up to 8 short probe rays per hit
-// with a diffuse part, and where they find a surface mesh_near_samples cosine samples as above.
+// with a diffuse part, and where they find a surface mesh_near_samples cosine samples (and
+// reflector samples, if asked) as above, at every such hit of a mirror chain.
 // Memory 16 bytes per entry after merging each pixel's equal columns (a final gather: about 190
 // entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather (defer_gather) is
 // never stored whole, its rows are built block by block where they are used.
@@ -136,17 +137,19 @@ struct GatherOptions {
   int mirror_image_samples = 0;
   // Final gather: kMesh reads the diffuse part's indirect light from the unknown under each hit
   // (but near other surfaces: mesh_near_distance); the cosine samples then only find the lights
-  // (the light points' partner) and no reflector points are drawn: the pixel's direct light is its
-  // own, the rest is the mesh's, with the mesh's error (a fine mesh's is below the rays' noise, a
-  // coarse one's above it). It needs the mesh's direct light (MeshDirect) where the gather is
-  // built.
+  // (the light points' partner) and no reflector points are drawn (but at the near points): the
+  // pixel's direct light is its own, the rest is the mesh's, with the mesh's error (a fine mesh's
+  // is below the rays' noise, a coarse one's above it). It needs the mesh's direct light
+  // (MeshDirect) where the gather is built.
   IndirectMode indirect = IndirectMode::kRays;
-  // Final gather, kMesh: where a surface lies within mesh_near_distance diameters of the unknown
-  // under a point (found by a few cosine rays), that unknown's mean is the wrong value there
-  // (the light arriving changes across it: the wall beside a corner fills more of the sky the
-  // closer the point), and the point's diffuse part is gathered as kRays gathers it, by
-  // mesh_near_samples cosine samples (rounded to a square) reading the mesh one bounce away.
-  // 0: the mesh is read at every point.
+  // Final gather, kMesh: where one of up to 8 cosine probes from a point, each mesh_near_distance
+  // times the diameter of the unknown under the point long, meets a surface, that unknown's mean
+  // is the wrong value there (the light arriving changes across it: the wall beside a corner
+  // fills more of the sky the closer the point), and the light the point's diffuse part
+  // reflects beyond the direct light is gathered by rays as kRays gathers it: mesh_near_samples
+  // cosine samples (rounded to a square) reading the mesh one bounce away, and points on the
+  // reflectors if reflector_samples asks (the light points and mirror images keep their
+  // counts). 0: the mesh is read at every point.
   double mesh_near_distance = 0.0;
   int mesh_near_samples = 64;
   std::uint64_t seed = 11;
@@ -165,15 +168,15 @@ struct GatherOptions {
   // (32 and 64 the same, 16 0.0763); on the room 16 gave 0.0528 and 64 0.0518 against 0.0526
   // without (README, "Mirror images of the lamps"). With the indirect light from the mesh, points
   // within 2 diameters of a surface are gathered by 64 rays: on the hierarchy, relative RMSE
-  // cornell-box 0.0594 -> 0.0455, cornell-glossy 0.0682 -> 0.0620, the mirror cube 0.0761 ->
-  // 0.0694, for 1.0, 0.6 and 0.8 s more gather (README, "Near surfaces, rays").
+  // cornell-box 0.0594 -> 0.0455, cornell-glossy 0.0682 -> 0.0615, the mirror cube 0.0761 ->
+  // 0.0691, for 0.8 to 1.1 s more gather (README, "Near surfaces, rays").
   static GatherOptions final_gather(IndirectMode indirect = IndirectMode::kRays) {
     GatherOptions o;
     o.kind = GatherKind::kFinal;
     o.diffuse = DiffuseMode::kFlat;
     o.gather_samples = indirect == IndirectMode::kMesh ? 16 : 64;
     o.light_samples = indirect == IndirectMode::kMesh ? 32 : 64;
-    o.reflector_samples = indirect == IndirectMode::kMesh ? 0 : 64;  // kMesh draws none
+    o.reflector_samples = indirect == IndirectMode::kMesh ? 0 : 64;  // none at kMesh's near points
     o.mirror_image_samples = indirect == IndirectMode::kMesh ? 32 : 64;
     o.mesh_near_distance = indirect == IndirectMode::kMesh ? 2.0 : 0.0;
     o.indirect = indirect;
@@ -254,8 +257,8 @@ GatherWork for_each_gather_block(
 // The bytes a gather of `pixels` pixels holds at its peak, built whole or deferred (for the
 // memory estimate, transport/memory_estimate.h): a stored gather its entries twice while it is
 // built (about 7 a pixel for the patch gather at 2 x 2 rays, 3 per cosine sample for the final
-// gather), a deferred one a block of rows and a few buffers; with the image and the apply's
-// sums.
+// gather, with kMesh's near points taken as half the points), a deferred one a block of rows
+// and a few buffers; with the image and the apply's sums.
 double gather_memory(const GatherOptions& options, std::int64_t pixels, bool deferred);
 
 // The scene's emission of each patch, as apply_gather takes it.
