@@ -323,16 +323,18 @@ class FinalGatherer {
     long long rays = 0;
     // Where the diffuse part's indirect light comes from: with kMesh the unknown under x, unless
     // x lies near a surface; then, as without kMesh, rays (with their own count).
-    bool from_mesh = mesh_indirect_;
+    bool from_mesh = diffuse && mesh_indirect_;
     int side = diffuse_side_;
-    if (diffuse && from_mesh && near_surface(sh, rng, rays)) {
+    // The unknown under x, located once for both the probes' reach and the mesh's read.
+    const DiffusePoint at = from_mesh ? locate(c_, sh.i, sh.u, sh.v) : DiffusePoint{};
+    if (from_mesh && near_surface(sh, at.diameter, rng, rays)) {
       from_mesh = false;
       side = mesh_near_side_;
     }
     const int nd = diffuse ? side * side : 0;
     const int ns = lobe ? lobe_side_ * lobe_side_ : 0;
     if (light_count_ > 0) rays += light_samples(sh, diffuse, lobe, nd, ns, rng, terms);
-    if (diffuse && from_mesh) mesh_reflected(sh, terms);
+    if (from_mesh) mesh_reflected(sh, at, terms);
     if (diffuse) rays += cosine_samples(sh, side, from_mesh, rng, terms);
     if (lobe) rays += lobe_samples(sh, ns, rng, terms);
     // After this hit's other samples, so that they draw the same numbers with or without these
@@ -410,13 +412,13 @@ class FinalGatherer {
   // l under x: B_l - E_l - sum_o D(l, o) e_o (render/mesh_direct.h). B_l = E_l + d (mean
   // arriving radiance), so this is d times what arrives at l from everything but the lights
   // themselves, with no d to apply again: each channel's weight is the chain's where d > 0.
-  void mesh_reflected(const Shading& sh, PixelTerms& terms) const {
+  void mesh_reflected(const Shading& sh, const DiffusePoint& at, PixelTerms& terms) const {
     const Rgb& d = sh.m.diffuse;
     Rgb w = sh.weight;
     for (int c = 0; c < 3; ++c)
       if (!(d[c] > 0.0)) w[c] = 0.0;
     const std::size_t first = terms.unknowns.size();
-    add_reflected(locate(c_, sh.i, sh.u, sh.v), scaled(w, 1.0), terms);
+    add_reflected(at, scaled(w, 1.0), terms);
     const MeshDirect& md = *c_.direct;
     for (std::size_t k = first; k < terms.unknowns.size(); ++k) {
       const Term t = terms.unknowns[k];
@@ -488,15 +490,16 @@ class FinalGatherer {
     return rays;
   }
 
-  // kMesh: whether a surface lies within mesh_near_distance diameters of the unknown under x, by
-  // up to kNearProbes cosine rays (the first that finds one ends the search; each adds to rays).
+  // kMesh: whether a surface lies within mesh_near_distance times `size` (the diameter of the
+  // unknown under x) of x, by up to kNearProbes cosine rays (the first that finds one ends the
+  // search; each adds to rays).
   // The unknown's B is its mean over its area: near another surface the light arriving changes
   // across it, and the mean is the wrong value at x (on the mirror cube's hierarchy, with a grid of
   // 4 elevations by 2 azimuths, 4, 8 and 16 probes gave relative RMSE 0.0695, 0.0694 and 0.0691).
   static constexpr int kNearProbes = 8;
-  bool near_surface(const Shading& sh, Rng& rng, long long& rays) const {
+  bool near_surface(const Shading& sh, double size, Rng& rng, long long& rays) const {
     if (!(o_.mesh_near_distance > 0.0)) return false;
-    const double reach = o_.mesh_near_distance * locate(c_, sh.i, sh.u, sh.v).diameter;
+    const double reach = o_.mesh_near_distance * size;
     for (int s = 0; s < kNearProbes; ++s) {
       const double j1 = rng.uniform32(), j2 = rng.uniform32();
       // 2 strata of the radius (elevation) by 4 of the azimuth: a wall on one side lies in one
