@@ -2,6 +2,7 @@
 // quadrature of the visible light, furnaces at E / (1 - a), and the folded operator.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -514,6 +515,50 @@ TEST(FinalGather, MeshsNearPointsGatheredByRaysComeNearTheRays) {
       "against 1024 cosine samples: the mesh read everywhere %.4f, rays near surfaces %.4f\n",
       everywhere, near);
   EXPECT_LT(near, 0.5 * everywhere);
+}
+
+// On a hierarchy the probes reach at least half the root's diameter, however fine the leaf: a
+// leaf's light from the many sources that each bring it little comes on links at or near its
+// root, and a surface within the root's size shadows a part of it that those links cannot
+// follow. The room on 1 m roots (45,000 leaves), against a 1024-sample rays gather of the same
+// solution: with the leaf's own diameter the north wall's region read 6.8 percent dark, the
+// west wall's 3.0, relative RMSE 0.056 (the mesh read everywhere: 7.0, 3.5, 0.069); with half
+// the root's, 0.9, 1.1 and 0.042.
+TEST(FinalGather, MeshsNearPointsOnAHierarchyReachAsOnItsRoots) {
+  Scene scene = load_scene(test::scene_path("room"));
+  scene.camera.width = 40;
+  scene.camera.height = 30;
+  SceneOverrides coarse;
+  coarse.patch_size = 1000;
+  SystemOptions so;
+  so.mesh = MeshKind::kHierarchical;
+  so.hierarchy.link_tolerance = 0.05;
+  auto sys = build_system(World::build(std::move(scene), coarse), so);
+  ASSERT_GT(sys->hierarchy->num_leaves(), 20 * sys->hierarchy->num_roots());  // refined deep
+  const SolveResult r = converged(*sys);
+  GatherOptions limit = final_options(1024),
+                read = GatherOptions::final_gather(IndirectMode::kMesh);
+  limit.reflector_samples = 0;
+  const Image reference = gather_image(*sys, r.u, limit);
+  const RegionMap regions = object_regions(*sys->world);
+  auto compare = [&](const GatherOptions& o) {
+    return compare_images(gather_image(*sys, r.u, o), reference, {}, &regions);
+  };
+  auto worst_region = [](const ImageComparison& c) {  // over the regions of 20 pixels or more
+    double worst = 0.0;
+    for (const RegionFigures& g : c.regions)
+      if (g.pixels >= 20) worst = std::max(worst, std::abs(g.luminance_difference));
+    return worst;
+  };
+  const ImageComparison near = compare(read);
+  read.mesh_near_distance = 0.0;
+  const ImageComparison everywhere = compare(read);
+  std::printf(
+      "against 1024 cosine samples: the mesh read everywhere %.4f (worst region %.4f), "
+      "rays near surfaces %.4f (%.4f)\n",
+      everywhere.relative_rmse, worst_region(everywhere), near.relative_rmse, worst_region(near));
+  EXPECT_LT(worst_region(near), 0.02);
+  EXPECT_LT(near.relative_rmse, 0.7 * everywhere.relative_rmse);
 }
 
 TEST(FinalGather, IndirectLightFromTheMeshNeedsTheMeshsDirectLight) {

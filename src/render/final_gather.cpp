@@ -327,7 +327,7 @@ class FinalGatherer {
     int side = diffuse_side_;
     // The unknown under x, located once for both the probes' reach and the mesh's read.
     const DiffusePoint at = from_mesh ? locate(c_, sh.i, sh.u, sh.v) : DiffusePoint{};
-    if (from_mesh && near_surface(sh, at.diameter, rng, rays)) {
+    if (from_mesh && near_surface(sh, probe_size(at), rng, rays)) {
       from_mesh = false;
       side = mesh_near_side_;
     }
@@ -490,9 +490,20 @@ class FinalGatherer {
     return rays;
   }
 
-  // kMesh: whether a surface lies within mesh_near_distance times `size` (the diameter of the
-  // unknown under x) of x, by up to kNearProbes cosine rays (the first that finds one ends the
-  // search; each adds to rays).
+  // kMesh: the length the probes' reach is measured in at `at`: the diameter of the unknown
+  // there, but on a hierarchy at least half its root's. A leaf's light from the many sources that
+  // each bring it little comes on links at or near its root, spread linearly over the root: a
+  // surface within the root's size shadows a part of it that those links cannot follow, however
+  // fine the leaf (on the room, with the leaf's own diameter, the refinement passes made more
+  // leaves and fewer near points: the north wall's region 1.6 percent dark against Cycles, the
+  // bookcase's 3.1; with half the root's 0.9 and 1.6; with the whole root's 0.7 and 1.5, but on
+  // the mirror cube 0.0702 against 0.0694 in 1.6 s more, the near points' noise).
+  double probe_size(const DiffusePoint& at) const {
+    return std::max(at.diameter, 0.5 * c_.diameters[static_cast<std::size_t>(at.patch)]);
+  }
+
+  // kMesh: whether a surface lies within mesh_near_distance times `size` (probe_size) of x, by up
+  // to kNearProbes cosine rays (the first that finds one ends the search; each adds to rays).
   // The unknown's B is its mean over its area: near another surface the light arriving changes
   // across it, and the mean is the wrong value at x (on the mirror cube's hierarchy, with a grid of
   // 4 elevations by 2 azimuths, 4, 8 and 16 probes gave relative RMSE 0.0695, 0.0694 and 0.0691).

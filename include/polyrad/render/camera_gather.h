@@ -36,9 +36,10 @@
 // With IndirectMode::kMesh the diffuse part's first bounce is not gathered: at a hit on unknown
 // l it is read as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it
 // directly (render/mesh_direct.h), and the cosine samples only weigh the lights they meet
-// against the light points; but where a surface lies within mesh_near_distance diameters of l,
-// the point is gathered by rays as above. A glossy part's lobe samples, and a chain that reaches
-// mirror_depth, still read the mesh where they land, as with rays.
+// against the light points; but where a surface lies within mesh_near_distance diameters of l
+// (on a hierarchy, at least half its root's), the point is gathered by rays as above. A glossy
+// part's lobe samples, and a chain that reaches mirror_depth, still read the mesh where they
+// land, as with rays.
 //
 // Nothing here depends on the values of u or e, so the view-mode precompute folds both into its
 // operator: Q = E S + G P_K S (eq. 12).
@@ -143,13 +144,14 @@ struct GatherOptions {
   // (MeshDirect) where the gather is built.
   IndirectMode indirect = IndirectMode::kRays;
   // Final gather, kMesh: where one of up to 8 cosine probes from a point, each mesh_near_distance
-  // times the diameter of the unknown under the point long, meets a surface, that unknown's mean
-  // is the wrong value there (the light arriving changes across it: the wall beside a corner
-  // fills more of the sky the closer the point), and the light the point's diffuse part
-  // reflects beyond the direct light is gathered by rays as kRays gathers it: mesh_near_samples
-  // cosine samples (rounded to a square) reading the mesh one bounce away, and points on the
-  // reflectors if reflector_samples asks (the light points and mirror images keep their
-  // counts). 0: the mesh is read at every point.
+  // times the diameter of the unknown under the point long (on a hierarchy at least half its
+  // root's: a leaf's light from afar comes on links near its root), meets a surface, that
+  // unknown's mean is the wrong value there (the light arriving changes across it: the wall
+  // beside a corner fills more of the sky the closer the point), and the light the point's
+  // diffuse part reflects beyond the direct light is gathered by rays as kRays gathers it:
+  // mesh_near_samples cosine samples (rounded to a square) reading the mesh one bounce away, and
+  // points on the reflectors if reflector_samples asks (the light points and mirror images keep
+  // their counts). 0: the mesh is read at every point.
   double mesh_near_distance = 0.0;
   int mesh_near_samples = 64;
   std::uint64_t seed = 11;
