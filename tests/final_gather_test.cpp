@@ -525,18 +525,25 @@ TEST(FinalGather, MeshsNearPointsGatheredByRaysComeNearTheRays) {
 // west wall's 3.0, relative RMSE 0.056 (the mesh read everywhere: 7.0, 3.5, 0.069); with half
 // the root's, 0.9, 1.1 and 0.042.
 TEST(FinalGather, MeshsNearPointsOnAHierarchyReachAsOnItsRoots) {
-  Scene scene = load_scene(test::scene_path("room"));
-  scene.camera.width = 40;
-  scene.camera.height = 30;
+  // Under the sanitizers, which look for memory errors in the same code, cornell-box's coarse
+  // hierarchy and a small image, its figures checked in Release only (the room would take about
+  // ten minutes there).
+  const bool light = test::kUnderAddressSanitizer;
+  Scene scene = load_scene(test::scene_path(light ? "cornell-box" : "room"));
+  scene.camera.width = light ? 16 : 40;
+  scene.camera.height = light ? 16 : 30;
   SceneOverrides coarse;
-  coarse.patch_size = 1000;
+  coarse.patch_size = light ? 100 : 1000;
   SystemOptions so;
   so.mesh = MeshKind::kHierarchical;
   so.hierarchy.link_tolerance = 0.05;
   auto sys = build_system(World::build(std::move(scene), coarse), so);
-  ASSERT_GT(sys->hierarchy->num_leaves(), 20 * sys->hierarchy->num_roots());  // refined deep
+  ASSERT_GT(sys->hierarchy->num_leaves(), 4 * sys->hierarchy->num_roots());  // refined
+  if (!light) {
+    ASSERT_GT(sys->hierarchy->num_leaves(), 20 * sys->hierarchy->num_roots());  // deep
+  }
   const SolveResult r = converged(*sys);
-  GatherOptions limit = final_options(1024),
+  GatherOptions limit = final_options(light ? 16 : 1024),
                 read = GatherOptions::final_gather(IndirectMode::kMesh);
   limit.reflector_samples = 0;
   const Image reference = gather_image(*sys, r.u, limit);
@@ -554,9 +561,11 @@ TEST(FinalGather, MeshsNearPointsOnAHierarchyReachAsOnItsRoots) {
   read.mesh_near_distance = 0.0;
   const ImageComparison everywhere = compare(read);
   std::printf(
-      "against 1024 cosine samples: the mesh read everywhere %.4f (worst region %.4f), "
+      "against %d cosine samples: the mesh read everywhere %.4f (worst region %.4f), "
       "rays near surfaces %.4f (%.4f)\n",
-      everywhere.relative_rmse, worst_region(everywhere), near.relative_rmse, worst_region(near));
+      limit.gather_samples, everywhere.relative_rmse, worst_region(everywhere), near.relative_rmse,
+      worst_region(near));
+  if (light) return;
   EXPECT_LT(worst_region(near), 0.02);
   EXPECT_LT(near.relative_rmse, 0.7 * everywhere.relative_rmse);
 }

@@ -492,12 +492,12 @@ class FinalGatherer {
 
   // kMesh: the length the probes' reach is measured in at `at`: the diameter of the unknown
   // there, but on a hierarchy at least half its root's. A leaf's light from the many sources that
-  // each bring it little comes on links at or near its root, spread linearly over the root: a
-  // surface within the root's size shadows a part of it that those links cannot follow, however
-  // fine the leaf (on the room, with the leaf's own diameter, the refinement passes made more
-  // leaves and fewer near points: the north wall's region 1.6 percent dark against Cycles, the
-  // bookcase's 3.1; with half the root's 0.9 and 1.6; with the whole root's 0.7 and 1.5, but on
-  // the mirror cube 0.0702 against 0.0694 in 1.6 s more, the near points' noise).
+  // each bring it little comes on links at or near its root, each spread linearly over its
+  // receiver: a surface within the root's size shadows a part of it that those links cannot
+  // follow, however fine the leaf (on the room, with the leaf's own diameter, the refinement passes
+  // made more leaves and fewer near points: the north wall's region 1.6 percent dark against
+  // Cycles, the bookcase's 3.1; with half the root's 0.9 and 1.6; with the whole root's 0.7
+  // and 1.5, but on the mirror cube 0.0702 against 0.0694 in 1.6 s more, the near points' noise).
   double probe_size(const DiffusePoint& at) const {
     return std::max(at.diameter, 0.5 * c_.diameters[static_cast<std::size_t>(at.patch)]);
   }
