@@ -183,9 +183,8 @@ void GatherFlags::add(CLI::App& app) {
   app.add_option("--mesh-near-distance", mesh_near_distance,
                  "Final gather with --indirect mesh: a point where one of up to 8 cosine probes, "
                  "this many times the diameter of the unknown under it long (on a hierarchy at "
-                 "least half its root's), meets a surface is "
-                 "gathered by rays instead of read from that unknown (0: read the mesh "
-                 "everywhere; default " +
+                 "least half its root's), meets a surface is gathered by rays instead of read "
+                 "from that unknown (0: read the mesh everywhere; default " +
                      number_text(mesh.mesh_near_distance) + ")")
       ->check(CLI::Range(0.0, 1e9));
   app.add_option("--mesh-near-samples", mesh_near_samples,
