@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "polyrad/util/sampling.h"
+#include "polyrad/world/world.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -76,6 +77,50 @@ TEST(RayCaster, FacingSegmentsCastTheSameRayAsSegmentOccluded) {
   }
   EXPECT_GT(blocked, 100);
   EXPECT_GT(open, 100);
+}
+
+TEST(RayCaster, PacketsAnswerAsOneSegmentAtATime) {
+  // The room's patches (furniture, thin shelves, a mirror): segments between random points of
+  // random patch pairs, in packets of every fill from 1 to 16, each lane against the one-ray
+  // answer; some segments too short to be cast, which read unblocked as segment_occluded says.
+  auto world = World::load(test::scene_path("room"));
+  const RayCaster& rc = world->caster();
+  const PatchSet& ps = world->patches();
+  Rng rng(11);
+  auto patch = [&] { return static_cast<PatchId>(rng.uniform() * static_cast<double>(ps.size())); };
+  auto point = [&](const Patch& p) { return p.point(rng.uniform(), rng.uniform()); };
+  int blocked = 0, open = 0, short_ones = 0, facing = 0;
+  for (int round = 0; round < 400; ++round) {
+    RayCaster::SegmentPacket packet, facing_packet;
+    std::array<bool, RayCaster::SegmentPacket::kSize> expected{}, expected_facing{};
+    const int fill = 1 + round % RayCaster::SegmentPacket::kSize;
+    for (int k = 0; k < fill; ++k) {
+      const PatchId a = patch(), b = patch();
+      const Vec3 x = point(ps[a]);
+      const Vec3 y = k % 5 == 4 ? Vec3(x + rc.epsilon() * ps[a].normal) : point(ps[b]);
+      expected[k] = rc.segment_occluded(x, ps[a], y, ps[b]);
+      rc.add_segment(packet, x, ps[a], y, ps[b]);
+      short_ones += packet.cast[k] ? 0 : 1;
+      (expected[k] ? blocked : open) += 1;
+      // The form factors' kind: from a's front to b's front.
+      const Vec3 x_lifted = rc.lifted_front(x, ps[a]);
+      const double length2 = (y - x).squaredNorm();
+      expected_facing[k] = rc.facing_segment_occluded(x_lifted, ps[a], y, ps[b], length2);
+      rc.add_facing_segment(facing_packet, x_lifted, ps[a], y, ps[b], length2);
+      facing += expected_facing[k] ? 1 : 0;
+    }
+    rc.cast(packet);
+    rc.cast(facing_packet);
+    ASSERT_EQ(packet.count, fill);
+    for (int k = 0; k < fill; ++k) {
+      EXPECT_EQ(packet.blocked[k], expected[k]) << round << " " << k;
+      EXPECT_EQ(facing_packet.blocked[k], expected_facing[k]) << round << " " << k;
+    }
+  }
+  EXPECT_GT(blocked, 300);
+  EXPECT_GT(open, 300);
+  EXPECT_GT(short_ones, 100);
+  EXPECT_GT(facing, 100);
 }
 
 }  // namespace

@@ -147,6 +147,59 @@ bool RayCaster::facing_segment_occluded(const Vec3& a_lifted, const Patch& pa, c
   return occluded(a_lifted, b_lifted - a_lifted, 0.0, 1.0);
 }
 
+void RayCaster::add_segment(SegmentPacket& p, const Vec3& a, const Patch& pa, const Vec3& b,
+                            const Patch& pb) const {
+  const int k = p.count++;
+  const Vec3 d = b - a;
+  const double la = lift(pa), lb = lift(pb);
+  p.cast[k] = !(d.norm() <= 2.0 * (la + lb));  // segment_occluded's shortest segment
+  if (!p.cast[k]) return;
+  p.from[k] = lifted(a, pa.normal, d, la);
+  p.to[k] = lifted(b, pb.normal, -d, lb);
+}
+
+void RayCaster::add_facing_segment(SegmentPacket& p, const Vec3& a_lifted, const Patch& pa,
+                                   const Vec3& b, const Patch& pb, double length2) const {
+  const int k = p.count++;
+  const double reach = 2.0 * (lift(pa) + lift(pb));
+  p.cast[k] = !(length2 <= reach * reach);
+  if (!p.cast[k]) return;
+  p.from[k] = a_lifted;
+  p.to[k] = lifted_front(b, pb);
+}
+
+void RayCaster::cast(SegmentPacket& p) const {
+  static_assert(SegmentPacket::kSize == 16, "cast() fills one RTCRay16");
+  alignas(64) int valid[16];
+  alignas(64) RTCRay16 r;
+  for (int k = 0; k < 16; ++k) {
+    const bool on = k < p.count && p.cast[k];
+    valid[k] = on ? -1 : 0;
+    const Vec3 o = on ? p.from[k] : Vec3::Zero(),
+               d = on ? Vec3(p.to[k] - p.from[k]) : Vec3::UnitX();
+    // As occluded(from, to - from, 0, 1) converts them.
+    r.org_x[k] = static_cast<float>(o.x());
+    r.org_y[k] = static_cast<float>(o.y());
+    r.org_z[k] = static_cast<float>(o.z());
+    r.dir_x[k] = static_cast<float>(d.x());
+    r.dir_y[k] = static_cast<float>(d.y());
+    r.dir_z[k] = static_cast<float>(d.z());
+    r.tnear[k] = 0.0f;
+    r.tfar[k] = 1.0f;
+    r.time[k] = 0.0f;
+    r.mask[k] = 0xFFFFFFFFu;
+    r.id[k] = 0;
+    r.flags[k] = 0;
+  }
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  // A fan's rays are coherent: with the flag, 16-wide packets of floor-to-lamp shadow rays took
+  // 0.25 s where without it 0.36 and one at a time 0.65 (6.4 million rays, one thread).
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcOccluded16(valid, impl_->scene, &context, &r);
+  for (int k = 0; k < p.count; ++k) p.blocked[k] = valid[k] != 0 && r.tfar[k] < 0.0f;
+}
+
 bool RayCaster::segment_occluded(const Vec3& a, PatchId pa, const Vec3& b, PatchId pb) const {
   return segment_occluded(a, patches_[pa], b, patches_[pb]);
 }
