@@ -203,20 +203,30 @@ std::vector<Segment> make_segments(const Setup& s, std::size_t count, int per_pa
 }
 
 // `rays` occlusion tests walking round the pool (a power of two long), in chunks as dynamically
-// scheduled as the form factors' rows. Returns how many were blocked.
+// scheduled as the form factors' rows, cast as they cast theirs: a packet of consecutive
+// segments (RayCaster::SegmentPacket; the form factors fill one with a pair's rays from several
+// outer points). Returns how many were blocked.
 long long bare_occlusion(const Setup& s, const std::vector<Segment>& pool, long long rays) {
   const PatchSet& ps = s.patches;
   const RayCaster& caster = *s.caster;
   const std::size_t mask = pool.size() - 1;
   constexpr long long kChunk = 1024;
+  constexpr long long kPacket = RayCaster::SegmentPacket::kSize;
+  static_assert(kChunk % kPacket == 0);
   const long long chunks = (rays + kChunk - 1) / kChunk;
   long long blocked = 0;
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : blocked)
   for (long long c = 0; c < chunks; ++c) {
     const long long end = std::min(rays, (c + 1) * kChunk);
-    for (long long r = c * kChunk; r < end; ++r) {
-      const Segment& g = pool[static_cast<std::size_t>(r) & mask];
-      blocked += caster.segment_occluded(g.x, ps[g.a], g.y, ps[g.b]);
+    RayCaster::SegmentPacket packet;
+    for (long long r0 = c * kChunk; r0 < end; r0 += kPacket) {
+      packet.clear();
+      for (long long r = r0; r < std::min(end, r0 + kPacket); ++r) {
+        const Segment& g = pool[static_cast<std::size_t>(r) & mask];
+        caster.add_segment(packet, g.x, ps[g.a], g.y, ps[g.b]);
+      }
+      caster.cast(packet);
+      for (int k = 0; k < packet.count; ++k) blocked += packet.blocked[k] ? 1 : 0;
     }
   }
   return blocked;

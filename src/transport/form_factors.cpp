@@ -311,6 +311,61 @@ int points_for(const Patch& a, const Patch& b, double larger_diameter, const For
   return o.far_points;
 }
 
+constexpr std::size_t kFan = RayCaster::SegmentPacket::kSize;
+
+// The kernel-weighted fraction of unblocked rays from each exposed outer point to b (exact when
+// b is wholly visible or hidden), for the rule's points first .. first + points.size() (at most
+// kFan). Each point draws options.visibility_rays points of b from its own stream, keyed by the
+// pair and its index in the rule; every ray leaves a's front. Drawn before any is cast (drawing a
+// point is a chain of dependent divisions and square roots, and the chains overlap where one
+// after each ray would wait for the one before: 7 percent of the whole), then cast kFan at a time.
+void visible_fractions(const Patch& a, const Patch& b, const PolygonSampler& target,
+                       const RayCaster& caster, const FormFactorOptions& options, std::uint64_t key,
+                       std::size_t first, std::span<const QuadraturePoint> points,
+                       const std::array<bool, kFan>& exposed, std::array<double, kFan>& visible,
+                       long long& rays_cast) {
+  struct FanRay {
+    std::size_t point;
+    double k, r2;
+    Vec3 y;
+  };
+  thread_local std::vector<FanRay> fan;  // one per thread, reused across pairs
+  fan.clear();
+  const int m = options.visibility_rays;
+  std::array<double, kFan> kernel_sum{}, kernel_visible{};
+  std::array<Vec3, kFan> x_lifted;
+  for (std::size_t g = 0; g < points.size(); ++g) {
+    if (!exposed[g]) continue;
+    const Vec3& x = points[g].x;
+    x_lifted[g] = caster.lifted_front(x, a);
+    Rng rng(options.seed, key, first + g);
+    for (int s = 0; s < m; ++s) {
+      // Second coordinate drawn first (see specular_transfer.cpp: the order GCC used).
+      const double v = rng.uniform32(), u = rng.uniform32();
+      const Vec3 y = target.sample((s + u) / m, v);
+      const Vec3 d = y - x;
+      const double r2 = d.squaredNorm();
+      if (!(r2 > 0.0)) continue;  // also a NaN from a degenerate clipped polygon
+      const double k = std::max(0.0, d.dot(a.normal)) * std::max(0.0, -d.dot(b.normal)) / (r2 * r2);
+      kernel_sum[g] += k;
+      if (k > 0.0) fan.push_back({g, k, r2, y});
+    }
+  }
+  RayCaster::SegmentPacket packet;
+  for (std::size_t f0 = 0; f0 < fan.size(); f0 += kFan) {
+    const std::size_t count = std::min(kFan, fan.size() - f0);
+    packet.clear();
+    for (std::size_t f = f0; f < f0 + count; ++f)
+      caster.add_facing_segment(packet, x_lifted[fan[f].point], a, fan[f].y, b, fan[f].r2);
+    caster.cast(packet);
+    for (std::size_t f = 0; f < count; ++f)
+      if (!packet.blocked[f]) kernel_visible[fan[f0 + f].point] += fan[f0 + f].k;
+  }
+  rays_cast += static_cast<long long>(fan.size());
+  for (std::size_t g = 0; g < points.size(); ++g)
+    if (exposed[g]) visible[g] = kernel_sum[g] > 0.0 ? kernel_visible[g] / kernel_sum[g] : 1.0;
+}
+
 // pair_area_form_factor for a pair that passed the facing test, with the larger of the two
 // diameters given and the quadrature points' buffer supplied by the caller (one per thread).
 // With `whole` (and a's id), a whole quad a that needs no refinement takes its rule from there.
@@ -343,55 +398,34 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
   PolygonSampler target(b_front);
   const ContourEdges b_edges(b_front);
 
-  // The shadow rays of one outer point are drawn in batches before any is cast: drawing a
-  // point is a chain of dependent divisions and square roots, and the chains of a batch overlap
-  // where one after each ray would wait for the one before (7 percent of the whole).
-  constexpr int kBatch = 8;
+  // Visibility first, a group of outer points at a time: the unoccluded factor (eq. 5) is not
+  // needed where every ray is blocked, and the group's rays, a fan from a to b, are cast in
+  // packets (RayCaster::SegmentPacket).
   const bool partly_buried = caster && !a_exposure.wholly();
+  // As many points as fill one packet, one alone when its rays fill more.
+  const auto m = static_cast<std::size_t>(std::max(0, options.visibility_rays));
+  const std::size_t group = caster && m > 0 ? std::max<std::size_t>(1, kFan / m) : kFan;
+  std::array<bool, kFan> exposed;
+  std::array<double, kFan> visible;
   double total = 0.0, weight = 0.0, exposed_weight = 0.0;
-  for (size_t q = 0; q < points.size(); ++q) {
-    const Vec3& x = points[q].x;
-    weight += points[q].w;
-    if (partly_buried && !a_exposure.exposed_at(a, x, *caster)) continue;
-    exposed_weight += points[q].w;
-    // Visibility first: the unoccluded factor (eq. 5) is not needed where every ray is blocked.
-    double visible = 1.0;
-    if (caster) {
-      // Kernel-weighted fraction of unblocked rays: exact when b is wholly visible or hidden.
-      Rng rng(options.seed, key, q);
-      const Vec3 x_lifted = caster->lifted_front(x, a);  // every ray below leaves a's front
-      int m = options.visibility_rays;
-      double kernel_sum = 0.0, kernel_visible = 0.0;
-      for (int s0 = 0; s0 < m; s0 += kBatch) {
-        const int count = std::min(kBatch, m - s0);
-        std::array<Vec3, kBatch> ys;
-        std::array<double, kBatch> ks, r2s;
-        for (int c = 0; c < count; ++c) {
-          const int s = s0 + c;
-          ks[c] = 0.0;
-          // Second coordinate drawn first (see specular_transfer.cpp: the order GCC used).
-          const double v = rng.uniform32(), u = rng.uniform32();
-          Vec3 y = target.sample((s + u) / m, v);
-          Vec3 d = y - x;
-          double r2 = d.squaredNorm();
-          if (!(r2 > 0.0)) continue;  // also a NaN from a degenerate clipped polygon
-          double k = std::max(0.0, d.dot(a.normal)) * std::max(0.0, -d.dot(b.normal)) / (r2 * r2);
-          kernel_sum += k;
-          ys[c] = y;
-          ks[c] = k;
-          r2s[c] = r2;
-        }
-        for (int c = 0; c < count; ++c) {
-          if (ks[c] <= 0.0) continue;
-          ++rays_cast;
-          if (!caster->facing_segment_occluded(x_lifted, a, ys[c], b, r2s[c]))
-            kernel_visible += ks[c];
-        }
-      }
-      visible = kernel_sum > 0.0 ? kernel_visible / kernel_sum : 1.0;
-      if (visible <= 0.0) continue;
+  for (std::size_t q0 = 0; q0 < points.size(); q0 += group) {
+    const std::size_t n_group = std::min(group, points.size() - q0);
+    for (std::size_t g = 0; g < n_group; ++g) {
+      const QuadraturePoint& p = points[q0 + g];
+      exposed[g] = !partly_buried || a_exposure.exposed_at(a, p.x, *caster);
+      visible[g] = 1.0;
     }
-    total += points[q].w * contour_form_factor(x, a.normal, b_edges) * visible;
+    if (caster)
+      visible_fractions(a, b, target, *caster, options, key, q0, points.subspan(q0, n_group),
+                        exposed, visible, rays_cast);
+    for (std::size_t g = 0; g < n_group; ++g) {
+      const QuadraturePoint& p = points[q0 + g];
+      weight += p.w;
+      if (!exposed[g]) continue;
+      exposed_weight += p.w;
+      if (visible[g] <= 0.0) continue;
+      total += p.w * contour_form_factor(p.x, a.normal, b_edges) * visible[g];
+    }
   }
   // A partly buried a: its mean over exposed points, times its exposed part of this region. The
   // region is a_front: where b's plane cuts a, its exposed fraction is not a's. A face standing
