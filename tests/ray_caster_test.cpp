@@ -100,7 +100,7 @@ TEST(RayCaster, PacketsAnswerAsOneSegmentAtATime) {
       const Vec3 y = k % 5 == 4 ? Vec3(x + rc.epsilon() * ps[a].normal) : point(ps[b]);
       expected[k] = rc.segment_occluded(x, ps[a], y, ps[b]);
       rc.add_segment(packet, x, ps[a], y, ps[b]);
-      short_ones += packet.cast[k] ? 0 : 1;
+      short_ones += packet.active[k] ? 0 : 1;
       (expected[k] ? blocked : open) += 1;
       // The form factors' kind: from a's front to b's front.
       const Vec3 x_lifted = rc.lifted_front(x, ps[a]);
@@ -112,6 +112,7 @@ TEST(RayCaster, PacketsAnswerAsOneSegmentAtATime) {
     rc.cast(packet);
     rc.cast(facing_packet);
     ASSERT_EQ(packet.count, fill);
+    ASSERT_EQ(facing_packet.count, fill);
     for (int k = 0; k < fill; ++k) {
       EXPECT_EQ(packet.blocked[k], expected[k]) << round << " " << k;
       EXPECT_EQ(facing_packet.blocked[k], expected_facing[k]) << round << " " << k;

@@ -3,7 +3,9 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -152,8 +154,8 @@ void RayCaster::add_segment(SegmentPacket& p, const Vec3& a, const Patch& pa, co
   const int k = p.count++;
   const Vec3 d = b - a;
   const double la = lift(pa), lb = lift(pb);
-  p.cast[k] = !(d.norm() <= 2.0 * (la + lb));  // segment_occluded's shortest segment
-  if (!p.cast[k]) return;
+  p.active[k] = !(d.norm() <= 2.0 * (la + lb));  // segment_occluded's shortest segment
+  if (!p.active[k]) return;
   p.from[k] = lifted(a, pa.normal, d, la);
   p.to[k] = lifted(b, pb.normal, -d, lb);
 }
@@ -162,30 +164,34 @@ void RayCaster::add_facing_segment(SegmentPacket& p, const Vec3& a_lifted, const
                                    const Vec3& b, const Patch& pb, double length2) const {
   const int k = p.count++;
   const double reach = 2.0 * (lift(pa) + lift(pb));
-  p.cast[k] = !(length2 <= reach * reach);
-  if (!p.cast[k]) return;
+  p.active[k] = !(length2 <= reach * reach);
+  if (!p.active[k]) return;
   p.from[k] = a_lifted;
   p.to[k] = lifted_front(b, pb);
 }
 
 void RayCaster::cast(SegmentPacket& p) const {
   static_assert(SegmentPacket::kSize == 16, "cast() fills one RTCRay16");
+  p.blocked.fill(false);
+  if (std::none_of(p.active.begin(), p.active.begin() + p.count, [](bool a) { return a; })) return;
   alignas(64) int valid[16];
   alignas(64) RTCRay16 r;
   for (int k = 0; k < 16; ++k) {
-    const bool on = k < p.count && p.cast[k];
+    const bool on = k < p.count && p.active[k];
     valid[k] = on ? -1 : 0;
     const Vec3 o = on ? p.from[k] : Vec3::Zero(),
                d = on ? Vec3(p.to[k] - p.from[k]) : Vec3::UnitX();
-    // As occluded(from, to - from, 0, 1) converts them.
+    // As occluded(from, to - from, 0, 1) converts them. A lane off also has tnear > tfar: where
+    // Embree has no native 16-wide kernel it casts the packet as a stream, which reads that, not
+    // `valid`, to skip a ray.
     r.org_x[k] = static_cast<float>(o.x());
     r.org_y[k] = static_cast<float>(o.y());
     r.org_z[k] = static_cast<float>(o.z());
     r.dir_x[k] = static_cast<float>(d.x());
     r.dir_y[k] = static_cast<float>(d.y());
     r.dir_z[k] = static_cast<float>(d.z());
-    r.tnear[k] = 0.0f;
-    r.tfar[k] = 1.0f;
+    r.tnear[k] = on ? 0.0f : std::numeric_limits<float>::infinity();
+    r.tfar[k] = on ? 1.0f : -std::numeric_limits<float>::infinity();
     r.time[k] = 0.0f;
     r.mask[k] = 0xFFFFFFFFu;
     r.id[k] = 0;

@@ -348,7 +348,7 @@ void visible_fractions(const Patch& a, const Patch& b, const PolygonSampler& tar
       if (!(r2 > 0.0)) continue;  // also a NaN from a degenerate clipped polygon
       const double k = std::max(0.0, d.dot(a.normal)) * std::max(0.0, -d.dot(b.normal)) / (r2 * r2);
       kernel_sum[g] += k;
-      if (k > 0.0) fan.push_back({g, k, r2, y});
+      if (!(k <= 0.0)) fan.push_back({g, k, r2, y});  // as cast before (a NaN k too)
     }
   }
   RayCaster::SegmentPacket packet;

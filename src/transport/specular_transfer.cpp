@@ -21,9 +21,10 @@ namespace {
 constexpr double kCentrePointPrune = 1e-4;
 // The most sweeps of the balance's ascent before it is taken as not settling (then the prior
 // below makes the problem well posed). Every balance of cornell-glossy, the room and the mirror
-// cube at patch sizes 25 and 17 (1,454 of them) settled within the 30 sweeps before Newton or by
-// Newton there, or not in 3,000 either; at 3,000 the 42 that did not were nine tenths of the
-// ascent's sweeps at patch size 17 (126,000 of 141,000).
+// cube at patch sizes 25 and 17 (1,454 of them, the second ascents with the prior among them)
+// settled within the 30 sweeps before Newton or by Newton there, or not in 3,000 either; at 3,000
+// the 42 that did not were nine tenths of the ascent's sweeps at patch size 17 (126,000 of
+// 141,000).
 constexpr int kBalanceIterations = 300;
 constexpr double kBalanceTolerance = 1e-9;
 constexpr double kLostPrior = 1e-4;

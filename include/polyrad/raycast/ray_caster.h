@@ -70,12 +70,13 @@ class RayCaster {
     static constexpr int kSize = 16;
     int count = 0;
     std::array<Vec3, kSize> from, to;  // the lifted ends
-    std::array<bool, kSize> cast{};    // false: too short to be blocked, never cast
+    std::array<bool, kSize> active{};  // false: too short to be blocked, never cast
     std::array<bool, kSize> blocked{};
     void clear() { count = 0; }
     bool full() const { return count == kSize; }
   };
-  // Appends segment_occluded(a, pa, b, pb)'s segment; its lane is the count before.
+  // Appends segment_occluded(a, pa, b, pb)'s segment; its lane is the count before, which must
+  // be below kSize (the callers fill a packet, cast it, and clear it).
   void add_segment(SegmentPacket& p, const Vec3& a, const Patch& pa, const Vec3& b,
                    const Patch& pb) const;
   // Appends facing_segment_occluded(a_lifted, pa, b, pb, length2)'s segment.
