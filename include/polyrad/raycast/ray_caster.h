@@ -7,9 +7,12 @@
 //   RayCaster rc(patches);
 //   Hit h = rc.intersect(origin, dir);             // h.patch < 0 on a miss
 //   bool blocked = rc.occluded(x, y - x, eps, 1 - eps);   // segment test, direction unnormalised
+//   RayCaster::SegmentPacket fan;                  // up to 16 segments from one place, cast at once
+//   rc.add_segment(fan, x, px, y, py);  ...  rc.cast(fan);   // fan.blocked[lane]
 //
 // Callers count their own rays (a shared counter would serialise the threads).
-// Cost: building is O(P log P); a ray is O(log P). Memory: about 100 bytes per patch.
+// Cost: building is O(P log P); a ray is O(log P), a coherent packet of 16 about the cost of six
+// single rays. Memory: about 100 bytes per patch.
 #pragma once
 
 #include <array>
