@@ -134,40 +134,46 @@ Vec3 lifted(const Vec3& x, const Vec3& n, const Vec3& toward, double distance) {
 
 bool RayCaster::segment_occluded(const Vec3& a, const Patch& pa, const Vec3& b,
                                  const Patch& pb) const {
-  Vec3 d = b - a;
-  double la = lift(pa), lb = lift(pb);
-  if (d.norm() <= 2.0 * (la + lb)) return false;
-  Vec3 a1 = lifted(a, pa.normal, d, la), b1 = lifted(b, pb.normal, -d, lb);
-  return occluded(a1, b1 - a1, 0.0, 1.0);
+  Vec3 from, to;
+  return segment_ends(a, pa, b, pb, from, to) && occluded(from, to - from, 0.0, 1.0);
 }
 
 bool RayCaster::facing_segment_occluded(const Vec3& a_lifted, const Patch& pa, const Vec3& b,
                                         const Patch& pb, double length2) const {
-  const double reach = 2.0 * (lift(pa) + lift(pb));  // segment_occluded's shortest segment
+  Vec3 b_lifted;
+  return facing_end(pa, b, pb, length2, b_lifted) &&
+         occluded(a_lifted, b_lifted - a_lifted, 0.0, 1.0);
+}
+
+bool RayCaster::segment_ends(const Vec3& a, const Patch& pa, const Vec3& b, const Patch& pb,
+                             Vec3& from, Vec3& to) const {
+  const Vec3 d = b - a;
+  const double la = lift(pa), lb = lift(pb);
+  if (d.norm() <= 2.0 * (la + lb)) return false;
+  from = lifted(a, pa.normal, d, la);
+  to = lifted(b, pb.normal, -d, lb);
+  return true;
+}
+
+bool RayCaster::facing_end(const Patch& pa, const Vec3& b, const Patch& pb, double length2,
+                           Vec3& b_lifted) const {
+  const double reach = 2.0 * (lift(pa) + lift(pb));  // segment_ends' shortest segment
   if (length2 <= reach * reach) return false;
-  const Vec3 b_lifted = lifted_front(b, pb);
-  return occluded(a_lifted, b_lifted - a_lifted, 0.0, 1.0);
+  b_lifted = lifted_front(b, pb);
+  return true;
 }
 
 void RayCaster::add_segment(SegmentPacket& p, const Vec3& a, const Patch& pa, const Vec3& b,
                             const Patch& pb) const {
   const int k = p.count++;
-  const Vec3 d = b - a;
-  const double la = lift(pa), lb = lift(pb);
-  p.active[k] = !(d.norm() <= 2.0 * (la + lb));  // segment_occluded's shortest segment
-  if (!p.active[k]) return;
-  p.from[k] = lifted(a, pa.normal, d, la);
-  p.to[k] = lifted(b, pb.normal, -d, lb);
+  p.active[k] = segment_ends(a, pa, b, pb, p.from[k], p.to[k]);
 }
 
 void RayCaster::add_facing_segment(SegmentPacket& p, const Vec3& a_lifted, const Patch& pa,
                                    const Vec3& b, const Patch& pb, double length2) const {
   const int k = p.count++;
-  const double reach = 2.0 * (lift(pa) + lift(pb));
-  p.active[k] = !(length2 <= reach * reach);
-  if (!p.active[k]) return;
   p.from[k] = a_lifted;
-  p.to[k] = lifted_front(b, pb);
+  p.active[k] = facing_end(pa, b, pb, length2, p.to[k]);
 }
 
 void RayCaster::cast(SegmentPacket& p) const {

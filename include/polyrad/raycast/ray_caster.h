@@ -76,7 +76,6 @@ class RayCaster {
     std::array<bool, kSize> active{};  // false: too short to be blocked, never cast
     std::array<bool, kSize> blocked{};
     void clear() { count = 0; }
-    bool full() const { return count == kSize; }
   };
   // Appends segment_occluded(a, pa, b, pb)'s segment; its lane is the count before, which must
   // be below kSize (the callers fill a packet, cast it, and clear it).
@@ -99,6 +98,12 @@ class RayCaster {
   const PatchSet& patches() const { return patches_; }
 
  private:
+  // The ends segment_occluded casts between (false: too short to be blocked, nothing cast).
+  bool segment_ends(const Vec3& a, const Patch& pa, const Vec3& b, const Patch& pb, Vec3& from,
+                    Vec3& to) const;
+  // The far end facing_segment_occluded casts to (false: too short, as above).
+  bool facing_end(const Patch& pa, const Vec3& b, const Patch& pb, double length2,
+                  Vec3& b_lifted) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
   const PatchSet& patches_;
