@@ -65,7 +65,8 @@ for tag in open(f"{out}/runs.txt").read().split():
         elements, links = h["leaves"], h["links"]
         build = s.get("hierarchy", 0.0)
         stages = (f"exposure {s.get('hierarchy_exposure', 0):.1f}, oracle {s.get('hierarchy_oracle', 0):.1f}, "
-                  f"form factors {s.get('hierarchy_form_factors', 0):.1f}, pass solves {s.get('hierarchy_pass_solves', 0):.2f}")
+                  f"form factors {s.get('hierarchy_form_factors', 0):.1f}, operators {s.get('hierarchy_operators', 0):.1f}, "
+                  f"pass solves {s.get('hierarchy_pass_solves', 0):.2f}")
         if "specular_transfer" in s:
             stages += f", transfer {s['specular_transfer']:.1f}"
     else:

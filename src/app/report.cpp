@@ -162,6 +162,7 @@ void write_json(JsonWriter& w, std::string_view key, const HierarchySummary& h) 
       .value("root_form_factor_seconds", st.root_form_factor_seconds)
       .value("transfer_seconds", st.transfer_seconds)
       .value("specular_link_seconds", st.specular_link_seconds)
+      .value("lookup_seconds", st.lookup_seconds)
       .value("operator_bytes", h.operator_bytes)
       .value("seconds", st.seconds);
   w.begin_array("passes");
@@ -176,6 +177,7 @@ void write_json(JsonWriter& w, std::string_view key, const HierarchySummary& h) 
         .value("sweeps", p.sweeps)
         .value("oracle_seconds", p.oracle_seconds)
         .value("form_factor_seconds", p.form_factor_seconds)
+        .value("operator_seconds", p.operator_seconds)
         .value("solve_seconds", p.solve_seconds)
         .end_object();
   w.end_array();

@@ -246,8 +246,10 @@ void HierarchyBuilder::run() {
     if (!later_pass(p)) break;
   if (!links_.empty()) publish_links();  // the passes ended early
   el_.shrink_to_fit();  // the last growth's slack (split grows the arrays by a quarter)
+  const Stopwatch t_lookup;
   h_.build_corner_averages(roots_);
   h_.build_lookup(roots_);
+  h_.stats_.lookup_seconds = t_lookup.seconds();
   h_.stats_.seconds = t_start.seconds();
 }
 
@@ -369,11 +371,15 @@ bool HierarchyBuilder::later_pass(int p) {
   HierarchyPass next;
   std::vector<Candidate> again;
   std::vector<Split> split_links;
+  const Stopwatch t0;
+  const double exposure0 = h_.stats_.exposure_seconds;  // split_all's measuring is its own stage
   judge_links_again(again, split_links);
   if (again.empty() && split_links.empty()) return false;
   std::vector<std::int32_t> to_split;
   for (const auto& sl : split_links) to_split.push_back(sl.element);
   split_all(to_split, next);
+  next.oracle_seconds +=
+      t0.seconds() - (h_.stats_.exposure_seconds - exposure0);  // refine: its own
   for (const auto& sl : split_links)
     for (int c = 0; c < 4; ++c)
       again.push_back({el_[sl.element].first_child + c, sl.other, -1.0f, sl.visibility});
@@ -387,21 +393,36 @@ bool HierarchyBuilder::later_pass(int p) {
 // becomes a candidate again, one with rays is split at its larger end where either may split.
 void HierarchyBuilder::judge_links_again(std::vector<Candidate>& again,
                                          std::vector<Split>& split_links) {
+  // Per link of a chunk: kept, judged again (kAgain), or the end to split; judged on both
+  // threads, then applied in the chunk's order, so that the candidates and the kept links come
+  // out as one thread makes them.
+  constexpr std::int32_t kKeep = -2, kAgain = -1;
+  std::vector<std::int32_t> verdict;
   for (auto& chunk : links_) {  // the links kept, compacted in place (no copy of them all)
+    const auto size = static_cast<std::int64_t>(chunk.size());
+    verdict.resize(chunk.size());
+#pragma omp parallel for schedule(dynamic, 256)
+    for (std::int64_t k = 0; k < size; ++k) {
+      const ElementLink l = chunk[k].expand();
+      std::int32_t v = kKeep;
+      if (l.visibility == LinkVisibility::kUntested) {
+        if (!accurate(l)) v = kAgain;
+      } else if (!accurate(l)) {
+        const std::int32_t s = split_choice(l.a, l.b);
+        v = s < 0 ? kKeep : s;
+      }
+      verdict[k] = v;
+    }
     std::size_t kept = 0;
     for (std::size_t k = 0; k < chunk.size(); ++k) {
-      const ElementLink l = chunk[k].expand();
-      if (accurate(l)) {
-        chunk[kept++] = chunk[k];
-      } else if (l.visibility == LinkVisibility::kUntested) {
+      const KeptLink& l = chunk[k];
+      const std::int32_t v = verdict[k];
+      if (v == kKeep)
+        chunk[kept++] = l;
+      else if (v == kAgain)
         again.push_back({l.a, l.b, l.m});
-      } else {
-        const std::int32_t s = split_choice(l.a, l.b);
-        if (s < 0)
-          chunk[kept++] = chunk[k];
-        else
-          split_links.push_back({s, s == l.a ? l.b : l.a, l.visibility});
-      }
+      else
+        split_links.push_back({v, v == l.a ? l.b : l.a, l.visibility});
     }
     chunk.resize(kept);
     chunk.shrink_to_fit();  // one chunk's copy at a time; the slack was 5 MB on the mirror cube
@@ -412,7 +433,9 @@ void HierarchyBuilder::judge_links_again(std::vector<Candidate>& again,
 // The end of pass p (0 the first): its operator and counts, then a solve for the next pass to
 // judge by, or after the last the links published.
 void HierarchyBuilder::close_pass(HierarchyPass& pass, int p) {
+  const Stopwatch t0;
   make_operator();
+  pass.operator_seconds = t0.seconds();
   if (p == o_.passes) publish_links();
   attach_specular();
   pass.links = link_count();

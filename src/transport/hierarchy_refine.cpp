@@ -56,20 +56,34 @@ using hierarchy_detail::wholly_exposed;
 namespace hierarchy_detail {
 
 LinearFit fit_linear(const Element& r, const std::array<float, kOraclePoints>& f) {
-  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  // Least squares of f ~ mean + slope . d over the points' offsets d from the centroid, solved
+  // about the points' own mean offset: the slopes from the 2 x 2 centred normal equations, the
+  // mean from f's mean. The oracle and the operator's rows fit every link's two ends at every
+  // judgement and build, so this is kept to a few multiplications (no 3 x 3 solve).
+  std::array<Vec2, kOraclePoints> d;
+  Vec2 d_mean = Vec2::Zero();
+  double f_mean = 0.0;
   for (int k = 0; k < kOraclePoints; ++k) {
-    const Vec2 d = sample_uv(r, k) - r.centroid_uv;
-    const Eigen::Vector3d row(1.0, d.x(), d.y());
-    normal += row * row.transpose();
-    rhs += row * static_cast<double>(f[k]);
+    d[k] = sample_uv(r, k) - r.centroid_uv;
+    d_mean += d[k] / kOraclePoints;
+    f_mean += static_cast<double>(f[k]) / kOraclePoints;
   }
-  const Eigen::Vector3d x = normal.ldlt().solve(rhs);
-  LinearFit fit{x[0], Vec2(x[1], x[2]), 0.0};
+  double sxx = 0.0, sxy = 0.0, syy = 0.0, sxf = 0.0, syf = 0.0;
   for (int k = 0; k < kOraclePoints; ++k) {
-    const Vec2 d = sample_uv(r, k) - r.centroid_uv;
-    fit.miss = std::max(fit.miss, std::abs(f[k] - (fit.mean + fit.slope.dot(d))));
+    const Vec2 c = d[k] - d_mean;
+    const double g = static_cast<double>(f[k]) - f_mean;
+    sxx += c.x() * c.x();
+    sxy += c.x() * c.y();
+    syy += c.y() * c.y();
+    sxf += c.x() * g;
+    syf += c.y() * g;
   }
+  const double det = sxx * syy - sxy * sxy;  // > 0: the points span the element
+  const Vec2 slope =
+      det > 0.0 ? Vec2((syy * sxf - sxy * syf) / det, (sxx * syf - sxy * sxf) / det) : Vec2::Zero();
+  LinearFit fit{f_mean - slope.dot(d_mean), slope, 0.0};
+  for (int k = 0; k < kOraclePoints; ++k)
+    fit.miss = std::max(fit.miss, std::abs(f[k] - (fit.mean + fit.slope.dot(d[k]))));
   return fit;
 }
 
@@ -283,12 +297,13 @@ HierarchyBuilder::Outcome HierarchyBuilder::judge(const Candidate& c) const {
 
 void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& pass) {
   const Stopwatch t0;
+  const double exposure0 = h_.stats_.exposure_seconds;  // split_all's measuring is its own stage
   while (!candidates.empty()) {
     const Decisions decided = judge_all(candidates, pass);
     pass.candidates += static_cast<std::int64_t>(candidates.size());
     candidates = split_decided(candidates, decided, pass);
   }
-  pass.oracle_seconds += t0.seconds();
+  pass.oracle_seconds += t0.seconds() - (h_.stats_.exposure_seconds - exposure0);
 }
 
 // Judged in batches, so that the outcomes (each with a link's oracle data) are never held for

@@ -68,21 +68,24 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
   auto h = std::make_shared<ElementHierarchy>(
       build_hierarchy(w.patches(), w.materials(), w.caster(), ho));
   const HierarchyStats& st = h->stats();
-  double oracle = 0.0, form_factors = 0.0, solves = 0.0;
+  double oracle = 0.0, form_factors = 0.0, operators = 0.0, solves = 0.0;
   for (const auto& p : st.passes) {
     oracle += p.oracle_seconds;
     form_factors += p.form_factor_seconds;
+    operators += p.operator_seconds;
     solves += p.solve_seconds;
   }
   sys.times.push_back({"hierarchy_exposure", st.exposure_seconds});
   sys.times.push_back({"hierarchy_oracle", oracle});
   sys.times.push_back({"hierarchy_form_factors", form_factors});
+  sys.times.push_back({"hierarchy_operators", operators});
   sys.times.push_back({"hierarchy_pass_solves", solves});
   if (lobes) {
     sys.times.push_back({"hierarchy_root_form_factors", st.root_form_factor_seconds});
     sys.times.push_back({"specular_transfer", st.transfer_seconds});
     sys.times.push_back({"hierarchy_specular_links", st.specular_link_seconds});
   }
+  sys.times.push_back({"hierarchy_lookup", st.lookup_seconds});
   sys.times.push_back({"hierarchy", st.seconds});
   Stopwatch watch;
   if (lobes) {

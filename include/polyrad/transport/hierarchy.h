@@ -186,7 +186,11 @@ struct HierarchyPass {
   long long links = 0;   // links after the pass
   long long elements = 0, leaves = 0;
   int sweeps = 0;  // Gauss-Seidel sweeps of the solve that ended the pass
-  double oracle_seconds = 0.0, form_factor_seconds = 0.0, solve_seconds = 0.0;
+  // The oracle (judging, splitting, and in a later pass judging the kept links again), the
+  // links' pair form factors, the operator of the pass's links (its rows and energy guard) and
+  // the solve that ends it.
+  double oracle_seconds = 0.0, form_factor_seconds = 0.0, operator_seconds = 0.0,
+         solve_seconds = 0.0;
 };
 
 struct HierarchyStats {
@@ -207,6 +211,7 @@ struct HierarchyStats {
   double root_form_factor_seconds = 0.0, transfer_seconds = 0.0, specular_link_seconds = 0.0;
   long long transfer_entries = 0, specular_links = 0, specular_row_entries = 0;
   long long root_form_factors = 0;  // non-zeros of the reflectors' rows
+  double lookup_seconds = 0.0;      // the final gather's lookups: corner averages, leaf grids
   double seconds = 0.0;
 };
 
