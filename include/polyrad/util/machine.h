@@ -34,7 +34,8 @@ void return_large_blocks_to_the_system();
 // transparent huge pages, madvise mode; elsewhere, or for less than 2 MiB, nothing). For the
 // large arrays a build fills once it has allocated them: each 4 KiB page's first touch is a
 // fault, and on a virtual machine a fault cost about 10 us (the room's hierarchical render took
-// 670 thousand). Call it before the first write: resize_on_huge_pages does both.
+// 670 thousand). Call it before the first write: resize_on_huge_pages does both. The polyrad
+// program's operator new calls it for every block of 2 MiB or more (src/cli/allocation.cpp).
 void advise_huge_pages(const void* data, std::size_t bytes);
 template <typename Vector>
 void resize_on_huge_pages(Vector& v, std::size_t size) {
