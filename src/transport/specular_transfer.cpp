@@ -467,7 +467,10 @@ void specular_entries_of(const PatchSet& patches, const Material& material, cons
   std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
     return a.from != b.from ? a.from < b.from : a.to < b.to;
   });
-  out.insert(out.end(), entries.begin(), entries.end());
+  if (out.empty())
+    out.swap(entries);  // no copy: a reflector's entries were faulted in once already
+  else
+    out.insert(out.end(), entries.begin(), entries.end());
   if (counters) {
     counters->rays += local.rays;
     counters->unseen += local.unseen;
