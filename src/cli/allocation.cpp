@@ -8,14 +8,27 @@
 // link buffers. Asked for huge pages, a block faults 2 MiB at a time.
 //
 // Only the program does this (the library leaves allocation to whoever links it), and not
-// under AddressSanitizer, whose own operator new checks that new and delete are paired.
+// under a sanitizer, whose runtime has its own operator new (AddressSanitizer checks that new
+// and delete are paired; ThreadSanitizer's would collide with these at link time).
 // Cost: one madvise call per block of 2 MiB or more; blocks stay glibc's (malloc and free).
+#include <cerrno>
 #include <cstdlib>
 #include <new>
 
 #include "polyrad/util/machine.h"
 
-#if !defined(__SANITIZE_ADDRESS__)
+// CMake leaves this file out of sanitized builds (POLYRAD_SANITIZE); the guard is for others.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
+    __has_feature(memory_sanitizer) || __has_feature(leak_sanitizer)
+#define POLYRAD_SANITIZED_ALLOCATION 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define POLYRAD_SANITIZED_ALLOCATION 1
+#endif
+
+#if !defined(POLYRAD_SANITIZED_ALLOCATION)
 
 namespace {
 
@@ -29,14 +42,18 @@ void* allocate(std::size_t size) {
     if (!handler) throw std::bad_alloc();
     handler();
   }
-  if (size >= kHugeBlock) polyrad::advise_huge_pages(p, size);
+  if (size >= kHugeBlock) {
+    const int saved = errno;  // madvise fails with EINVAL where there are no huge pages
+    polyrad::advise_huge_pages(p, size);
+    errno = saved;
+  }
   return p;
 }
 
 }  // namespace
 
-// The nothrow and aligned forms of libstdc++ call these or use malloc's family as well, so every
-// delete below frees what its new allocated.
+// The standard's nothrow forms call these; libstdc++'s aligned forms use aligned_alloc and free:
+// every delete frees what its new allocated, by malloc's family.
 void* operator new(std::size_t size) { return allocate(size); }
 void* operator new[](std::size_t size) { return allocate(size); }
 void operator delete(void* p) noexcept { std::free(p); }

@@ -322,7 +322,10 @@ void HierarchyBuilder::judge_albedos() {
 // Pass 0: every facing pair of roots (as the uniform mesh's pair loop), judged with B = E.
 void HierarchyBuilder::first_pass() {
   HierarchyPass pass;
-  refine(facing_root_pairs(), pass);
+  const Stopwatch t0;
+  std::vector<Candidate> candidates = facing_root_pairs();
+  pass.oracle_seconds += t0.seconds();  // finding the candidates is the oracle's too
+  refine(std::move(candidates), pass);
   link_form_factors(pass);
   bury_unlinked_roots();
   close_pass(pass, 0);
@@ -374,7 +377,10 @@ bool HierarchyBuilder::later_pass(int p) {
   const Stopwatch t0;
   const double exposure0 = h_.stats_.exposure_seconds;  // split_all's measuring is its own stage
   judge_links_again(again, split_links);
-  if (again.empty() && split_links.empty()) return false;
+  if (again.empty() && split_links.empty()) {  // nothing to refine: the judging is the last pass's
+    if (!h_.stats_.passes.empty()) h_.stats_.passes.back().oracle_seconds += t0.seconds();
+    return false;
+  }
   std::vector<std::int32_t> to_split;
   for (const auto& sl : split_links) to_split.push_back(sl.element);
   split_all(to_split, next);
