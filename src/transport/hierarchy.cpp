@@ -375,17 +375,17 @@ bool HierarchyBuilder::later_pass(int p) {
   std::vector<Candidate> again;
   std::vector<Split> split_links;
   const Stopwatch t0;
-  const double exposure0 = h_.stats_.exposure_seconds;  // split_all's measuring is its own stage
+  const double exposure0 = h_.stats_.exposure_seconds;
   judge_links_again(again, split_links);
   if (again.empty() && split_links.empty()) {  // nothing to refine: the judging is the last pass's
-    if (!h_.stats_.passes.empty()) h_.stats_.passes.back().oracle_seconds += t0.seconds();
+    if (!h_.stats_.passes.empty())
+      h_.stats_.passes.back().oracle_seconds += oracle_seconds_since(t0, exposure0);
     return false;
   }
   std::vector<std::int32_t> to_split;
   for (const auto& sl : split_links) to_split.push_back(sl.element);
   split_all(to_split, next);
-  next.oracle_seconds +=
-      t0.seconds() - (h_.stats_.exposure_seconds - exposure0);  // refine: its own
+  next.oracle_seconds += oracle_seconds_since(t0, exposure0);  // refine adds its own
   for (const auto& sl : split_links)
     for (int c = 0; c < 4; ++c)
       again.push_back({el_[sl.element].first_child + c, sl.other, -1.0f, sl.visibility});

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/util/timer.h"
 
 namespace polyrad {
 
@@ -207,6 +208,11 @@ class HierarchyBuilder {
   // Judges the candidates, splits where the oracle asks and judges the children, until each pair
   // is linked or dropped; the links go to pending_ (hierarchy_refine.cpp, with the steps below).
   void refine(std::vector<Candidate> candidates, HierarchyPass& pass);
+  // The oracle's seconds since `start`, when the exposure stage stood at `exposure0`: what
+  // split_all measured of exposure meanwhile is that stage's own.
+  double oracle_seconds_since(const Stopwatch& start, double exposure0) const {
+    return start.seconds() - (h_.stats_.exposure_seconds - exposure0);
+  }
   using Decisions = std::vector<std::pair<Decision, LinkVisibility>>;  // per candidate
   Decisions judge_all(const std::vector<Candidate>& candidates, HierarchyPass& pass);
   void keep_links(const std::vector<Candidate>& candidates, std::int64_t first,

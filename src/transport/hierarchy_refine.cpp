@@ -297,13 +297,13 @@ HierarchyBuilder::Outcome HierarchyBuilder::judge(const Candidate& c) const {
 
 void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& pass) {
   const Stopwatch t0;
-  const double exposure0 = h_.stats_.exposure_seconds;  // split_all's measuring is its own stage
+  const double exposure0 = h_.stats_.exposure_seconds;
   while (!candidates.empty()) {
     const Decisions decided = judge_all(candidates, pass);
     pass.candidates += static_cast<std::int64_t>(candidates.size());
     candidates = split_decided(candidates, decided, pass);
   }
-  pass.oracle_seconds += t0.seconds() - (h_.stats_.exposure_seconds - exposure0);
+  pass.oracle_seconds += oracle_seconds_since(t0, exposure0);
 }
 
 // Judged in batches, so that the outcomes (each with a link's oracle data) are never held for
