@@ -64,6 +64,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("gather_samples", o.gather_samples)
       .value("mirror_depth", o.mirror_depth)
       .value("emission_grid", o.emission_grid)
+      .value("emission_grid_everywhere", o.emission_grid_everywhere)
       .value("near_samples", o.near_samples)
       .value("near_distance", o.near_distance)
       .value("reflector_samples", o.reflector_samples)
@@ -91,6 +92,9 @@ GatherOptions read_gather_options(const JsonValue& v) {
     o.gather_samples = static_cast<int>(r.integer("gather_samples", 1, 65536));
     o.mirror_depth = static_cast<int>(r.integer("mirror_depth", 0, 64));
     o.emission_grid = static_cast<int>(r.integer("emission_grid", 1, 16));
+    // Written before the finer rays were cast only where needed: everywhere.
+    o.emission_grid_everywhere =
+        !r.has("emission_grid_everywhere") || r.boolean("emission_grid_everywhere");
     o.near_samples = static_cast<int>(r.integer("near_samples", 0, 65536));
     o.near_distance = r.number("near_distance");
     if (!(o.near_distance >= 0.0 && o.near_distance < 1e300))

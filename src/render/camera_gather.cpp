@@ -368,6 +368,7 @@ class GatherRows {
   struct Scratch {
     std::vector<Piece> pieces;
     std::vector<ThreadScratch> threads;
+    CoarseClasses coarse;  // the final gather's, for the block's rows and one more each side
     bool keep_pieces = true;
   };
 
@@ -389,7 +390,9 @@ class GatherRows {
     const auto threads = static_cast<std::size_t>(omp_get_max_threads());
     while (scratch.threads.size() < threads)
       scratch.threads.emplace_back(std::max<std::int64_t>(unknowns_, patches_));
-    long long rays = 0;
+    const bool coarse =
+        final_gather && options_.emission_grid >= 4 && !options_.emission_grid_everywhere;
+    long long rays = coarse ? coarse_classes(r0, r1, scratch) : 0;
 #pragma omp parallel
     {
       ThreadScratch& own = scratch.threads[static_cast<std::size_t>(omp_get_thread_num())];
@@ -401,8 +404,10 @@ class GatherRows {
         const std::int64_t end = std::min(r1, r0 + (k + 1) * chunk);
         for (std::int64_t r = r0 + k * chunk; r < end; ++r) {
           const int x = static_cast<int>(r % w), y = static_cast<int>(r / w);
-          rays += final_gather ? final_gather_pixel(context_, x, y, terms)
-                               : patch_gather_pixel(context_, x, y, terms);
+          rays += final_gather
+                      ? final_gather_pixel(context_, x, y, terms,
+                                           coarse ? scratch.coarse.shared_around(x, y) : nullptr)
+                      : patch_gather_pixel(context_, x, y, terms);
           merger.merge(terms.unknowns);
           merger.merge(terms.emission);
           append_row(terms.unknowns, out.g);
@@ -433,6 +438,29 @@ class GatherRows {
   }
 
  private:
+  // The coarse classes of the image rows that pixels [r0, r1) and their neighbours lie in, into
+  // scratch.coarse, in parallel over rows; returns the rays cast.
+  long long coarse_classes(std::int64_t r0, std::int64_t r1, Scratch& scratch) const {
+    const int w = camera_.width, h = camera_.height;
+    CoarseClasses& c = scratch.coarse;
+    c.width = w;
+    c.height = h;
+    c.first_row = static_cast<int>(std::max<std::int64_t>(0, r0 / w - 1));
+    const int last = static_cast<int>(std::min<std::int64_t>(h, (r1 - 1) / w + 2));
+    c.cls.resize(static_cast<std::size_t>(last - c.first_row) * static_cast<std::size_t>(w));
+    long long rays = 0;
+#pragma omp parallel
+    {
+      PixelTerms& terms = scratch.threads[static_cast<std::size_t>(omp_get_thread_num())].terms;
+#pragma omp for schedule(dynamic, 1) reduction(+ : rays)
+      for (int y = c.first_row; y < last; ++y)
+        for (int x = 0; x < w; ++x)
+          c.cls[static_cast<std::size_t>(y - c.first_row) * static_cast<std::size_t>(w) +
+                static_cast<std::size_t>(x)] = final_gather_coarse(context_, x, y, terms, rays);
+    }
+    return rays;
+  }
+
   // The patches' weights in their corners' averages: their flux weights where they are the
   // unknowns, their areas under a hierarchy (whose leaves are read through the hierarchy; the
   // patches' averages then serve the emission's interpolation only).
@@ -605,12 +633,14 @@ double gather_memory(const GatherOptions& o, std::int64_t pixels, bool deferred)
   const double samples = o.gather_samples + (near ? 0.5 * o.mesh_near_samples : 0.0);
   const double entries = o.kind == GatherKind::kFinal ? 0.75 * rays * samples : 1.75 * rays;
   const double per_pixel_buffers = 48.0;  // the image and the apply's double sums
+  // The final gather's coarse classes (CoarseClass) of the pixels built at once.
+  const double coarse = o.kind == GatherKind::kFinal ? 16.0 : 0.0;
   const auto p = static_cast<double>(pixels);
   if (deferred) {
-    const double block = static_cast<double>(kGatherBlockPixels) * entries * 16.0 * 3.0;
+    const double block = static_cast<double>(kGatherBlockPixels) * (entries * 16.0 * 3.0 + coarse);
     return block + 24.0 * p;
   }
-  return p * (2.0 * 16.0 * entries + per_pixel_buffers);
+  return p * (2.0 * 16.0 * entries + per_pixel_buffers + coarse);
 }
 
 std::vector<Rgb> scene_emission(const PatchSet& patches) {

@@ -2,7 +2,10 @@
 // section 7.1).
 //
 // Per pixel, a grid of finer rays finds the emission Le it sees along chains of delta lobes
-// (mirrors, up to mirror_depth bounces) (E). Per shading ray, along the same kind of chain, at
+// (mirrors, up to mirror_depth bounces) (E). They are cast only where a pixel may need them:
+// where 4 coarse ones in it or in a neighbour (CoarseClasses) meet more than one path class or
+// a lamp, or a shading ray meets another class than theirs; elsewhere each would add the one
+// class and no Le. Per shading ray, along the same kind of chain, at
 // each surface point met, for the non-delta parts of its BRDF, the direct light and the first
 // bounce (eq. 11):
 //   - light samples: a stratified grid of points on the lights, drawn by area (LightSampler),
@@ -68,18 +71,13 @@ class FinalGatherer {
   // come from the same area, which a furnace checks to the pixel (with the two estimated
   // separately, a pixel across the edge between a mirror and a diffuse wall was off by several
   // percent). A path class no shading ray found is shaded once from one of its finer rays.
-  long long gather(int x, int y, PixelTerms& terms) const {
+  long long gather(int x, int y, PixelTerms& terms, const std::uint64_t* shared) const {
     terms.clear();
     long long rays = 0;
     const int n = o_.pixel_grid, g = o_.emission_grid;
     const auto pixel = static_cast<std::uint64_t>(y) * c_.camera.width + x;
-    PathClasses classes;
-    for (int m = 0; m < g * g; ++m) {
-      const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, nullptr);
-      std::uint64_t key = 0;
-      rays += emission_along(ray, 1.0 / (g * g), terms, &key);
-      classes.add_fine(key, m);
-    }
+    std::array<std::uint64_t, kMaxFineRays> fine;
+    if (!shared) rays += fine_rays(x, y, pixel, terms, fine.data());
     std::array<Shaded, kMaxShadingRays> shaded;
     for (int k = 0; k < n * n; ++k) {
       Rng rng(o_.seed, pixel, static_cast<std::uint64_t>(k));
@@ -88,8 +86,25 @@ class FinalGatherer {
       rays += follow(ray, SubPixel{pixel, k}, rng, terms, &shaded[k].key);
       shaded[k].unknowns_end = terms.unknowns.size();
       shaded[k].emission_end = terms.emission.size();
-      classes.add_shading(shaded[k].key);
     }
+    // A shading ray outside the class the neighbourhood shares: the finer rays after all, their
+    // terms moved ahead of the shading rays' as if cast first (the same sums in the same order).
+    if (shared && std::any_of(shaded.begin(), shaded.begin() + n * n,
+                              [&](const Shaded& s) { return s.key != *shared; })) {
+      const std::size_t mid = terms.emission.size();
+      rays += fine_rays(x, y, pixel, terms, fine.data());
+      const std::size_t moved = terms.emission.size() - mid;
+      std::rotate(terms.emission.begin(), terms.emission.begin() + static_cast<std::ptrdiff_t>(mid),
+                  terms.emission.end());
+      for (int k = 0; k < n * n; ++k) {
+        shaded[k].emission_begin += moved;
+        shaded[k].emission_end += moved;
+      }
+      shared = nullptr;
+    }
+    PathClasses classes;
+    for (int m = 0; m < g * g; ++m) classes.add_fine(shared ? *shared : fine[m], m);
+    for (int k = 0; k < n * n; ++k) classes.add_shading(shaded[k].key);
     for (int k = 0; k < n * n; ++k) {
       const PathClasses::Class& c = classes.find(shaded[k].key);
       const double w = c.fine > 0 ? static_cast<double>(c.fine) / (g * g) / c.shading : 0.0;
@@ -112,7 +127,44 @@ class FinalGatherer {
     return rays;
   }
 
+  // The path class that the pixel's coarse finer rays (kCoarseSide^2 of the emission grid's,
+  // spread over the pixel) all meet, or none where they differ or one meets an emitter.
+  static constexpr int kCoarseSide = 2;
+  std::optional<std::uint64_t> coarse_class(int x, int y, PixelTerms& scratch,
+                                            long long& rays) const {
+    const int n = o_.pixel_grid, g = o_.emission_grid;
+    const auto pixel = static_cast<std::uint64_t>(y) * c_.camera.width + x;
+    std::optional<std::uint64_t> shared;
+    for (int a = 0; a < kCoarseSide; ++a)
+      for (int b = 0; b < kCoarseSide; ++b) {
+        // Cells g/4 and g - 1 - g/4 along each side: fine ray m takes cell (n^2 + m) mod g^2.
+        const int cell = coarse_cell(g, a) * g + coarse_cell(g, b);
+        const int m = ((cell - n * n) % (g * g) + g * g) % (g * g);
+        const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, nullptr);
+        scratch.clear();
+        std::uint64_t key = 0;
+        rays += emission_along(ray, 1.0, scratch, &key);
+        if (!scratch.emission.empty() || (shared && *shared != key)) return std::nullopt;
+        shared = key;
+      }
+    return shared;
+  }
+
  private:
+  static int coarse_cell(int g, int a) { return a == 0 ? g / 4 : g - 1 - g / 4; }
+
+  // The pixel's emission_grid^2 finer rays: their Le (appended to terms) and path classes.
+  long long fine_rays(int x, int y, std::uint64_t pixel, PixelTerms& terms,
+                      std::uint64_t* key) const {
+    const int n = o_.pixel_grid, g = o_.emission_grid;
+    long long rays = 0;
+    for (int m = 0; m < g * g; ++m) {
+      const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, nullptr);
+      rays += emission_along(ray, 1.0 / (g * g), terms, &key[m]);
+    }
+    return rays;
+  }
+
   // Which shading ray of which pixel is being followed.
   struct SubPixel {
     std::uint64_t pixel;
@@ -744,8 +796,28 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
   return m;
 }
 
-long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms) {
-  return FinalGatherer(c).gather(x, y, terms);
+long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms,
+                             const std::uint64_t* shared) {
+  return FinalGatherer(c).gather(x, y, terms, shared);
+}
+
+CoarseClass final_gather_coarse(const GatherContext& c, int x, int y, PixelTerms& scratch,
+                                long long& rays) {
+  const std::optional<std::uint64_t> k = FinalGatherer(c).coarse_class(x, y, scratch, rays);
+  return {k.value_or(0), k.has_value()};
+}
+
+const std::uint64_t* CoarseClasses::shared_around(int x, int y) const {
+  const CoarseClass& centre = at(x, y);
+  if (!centre.uniform) return nullptr;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int u = x + dx, v = y + dy;
+      if (u < 0 || v < 0 || u >= width || v >= height) continue;
+      const CoarseClass& c = at(u, v);
+      if (!c.uniform || c.key != centre.key) return nullptr;
+    }
+  return &centre.key;
 }
 
 }  // namespace polyrad::gather_detail

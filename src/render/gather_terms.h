@@ -124,8 +124,37 @@ inline void add_diffuse(const GatherContext& c, PatchId p, double u, double v, c
   add_diffuse(c, locate(c, p, u, v), w, terms);
 }
 
+// The path class a pixel's coarse finer rays (four of the final gather's emission grid) all
+// meet, where they agree and none meets an emitter (uniform).
+struct CoarseClass {
+  std::uint64_t key = 0;
+  bool uniform = false;
+};
+// Those of image rows [first_row, first_row + rows), for the pixels of the rows between.
+struct CoarseClasses {
+  int width = 0, height = 0;  // the image's
+  int first_row = 0;
+  std::vector<CoarseClass> cls;  // row-major from first_row
+  const CoarseClass& at(int x, int y) const {
+    return cls[static_cast<std::size_t>(y - first_row) * static_cast<std::size_t>(width) +
+               static_cast<std::size_t>(x)];
+  }
+  // The class pixel (x, y) and its eight neighbours (those in the image) all share, or null.
+  // Where a pixel's own four rays and its neighbours' 32 meet one class and no emitter, an
+  // object's edge or a lamp's sliver within the pixel is unlikely, and its finer rays would all
+  // add the same class and no Le.
+  const std::uint64_t* shared_around(int x, int y) const;
+};
+
 // The terms of pixel (x, y); each returns the number of rays cast.
 long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms);
-long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms);
+// shared: the class its neighbourhood shares (CoarseClasses::shared_around), or null. Given, the
+// finer rays are cast only if a shading ray meets another class (else each would have added
+// that class and no Le).
+long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms,
+                             const std::uint64_t* shared = nullptr);
+// Pixel (x, y)'s coarse class; adds the rays cast to `rays`.
+CoarseClass final_gather_coarse(const GatherContext& c, int x, int y, PixelTerms& scratch,
+                                long long& rays);
 
 }  // namespace polyrad::gather_detail

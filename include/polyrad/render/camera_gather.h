@@ -49,16 +49,17 @@
 //   Image img = apply_gather(g, solution.u, scene_emission(world->patches()));
 //
 // Cost: the patch gather casts pixels x sub-pixel rays x (1 + lobe samples + light samples)
-// rays. The final gather casts per pixel emission_grid^2 rays, then per shading ray and hit
+// rays. The final gather casts per pixel 4 coarse rays and, where they or its neighbours' meet
+// more than one path class or a lamp, emission_grid^2 finer ones, then per shading ray and hit
 // light samples + gather samples (diffuse part, + reflector samples where a scene has them)
 // + lobe samples (glossy part) + 2 rays per mirror image (a light point and a mirror plane whose
-// outline lets it through), and 2 near_samples more where a sample lands near: about 760
-// rays a pixel on cornell-box with the defaults. With kMesh, up to 8 short probe rays per hit
-// with a diffuse part, and where they find a surface mesh_near_samples cosine samples (and
-// reflector samples, if asked) as above, at every such hit of a mirror chain.
-// Memory 16 bytes per entry after merging each pixel's equal columns (a final gather: about 190
-// entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather (defer_gather) is
-// never stored whole, its rows are built block by block where they are used.
+// outline lets it through), and 2 near_samples more where a sample lands near: about 710
+// rays a pixel on cornell-box with the defaults (760 with the finer rays everywhere). With kMesh,
+// up to 8 short probe rays per hit with a diffuse part, and where they find a surface
+// mesh_near_samples cosine samples (and reflector samples, if asked) as above, at every such hit of
+// a mirror chain. Memory 16 bytes per entry after merging each pixel's equal columns (a final
+// gather: about 190 entries a pixel on cornell-box, 12 million for 256 x 256); a deferred gather
+// (defer_gather) is never stored whole, its rows are built block by block where they are used.
 #pragma once
 
 #include <array>
@@ -118,6 +119,12 @@ struct GatherOptions {
   // mirrors), finer than pixel_grid because a lamp's edge pixels are far brighter than its
   // surroundings.
   int emission_grid = 8;
+  // Final gather: false casts the finer rays only where a pixel may need them: where 4 of them
+  // (2 x 2 of the grid, spread over the pixel), in the pixel and in each of its 8 neighbours, do
+  // not all meet the same objects along their mirror chains and no emitter, or where a shading
+  // ray meets other objects; elsewhere all of them would add one path class and no Le. true
+  // casts them at every pixel (as gathers written before the choice did).
+  bool emission_grid_everywhere = false;
   // Final gather: where a BRDF sample lands within near_distance diameters of the unknown it
   // reads (the patch it meets, or on a hierarchy the leaf under the hit), the diffuse light
   // reflected there is gathered again (near_samples light points and cosine samples, rounded to
