@@ -187,6 +187,12 @@ void GatherFlags::add(CLI::App& app) {
                  "from that unknown (0: read the mesh everywhere; default " +
                      number_text(mesh.mesh_near_distance) + ")")
       ->check(CLI::Range(0.0, 1e9));
+  app.add_option("--mesh-read", mesh_read,
+                 "Final gather with --indirect mesh: how the mesh gives a point its light: "
+                 "smooth (bilinear in the averages at the corners of the unknowns under it) or "
+                 "flat (the mean of the one under it) (default " +
+                     std::string(enum_name(mesh.mesh_read)) + ")")
+      ->check(CLI::IsMember(enum_names<DiffuseMode>()));
   app.add_option("--mesh-near-samples", mesh_near_samples,
                  "Final gather with --indirect mesh: cosine samples at such a point (default " +
                      number_text(mesh.mesh_near_samples) + ")")
@@ -202,6 +208,7 @@ GatherOptions GatherFlags::options() const {
   GatherOptions o =
       kind == GatherKind::kPatch ? GatherOptions{} : GatherOptions::final_gather(indirect);
   if (!diffuse.empty()) o.diffuse = enum_from_name<DiffuseMode>(diffuse);
+  if (!mesh_read.empty()) o.mesh_read = enum_from_name<DiffuseMode>(mesh_read);
   if (pixel_grid > 0) o.pixel_grid = pixel_grid;
   if (lobe_samples > 0) o.lobe_samples = lobe_samples;
   if (light_samples >= 0) o.light_samples = light_samples;

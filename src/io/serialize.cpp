@@ -72,6 +72,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("indirect", enum_name(o.indirect))
       .value("mesh_near_distance", o.mesh_near_distance)
       .value("mesh_near_samples", o.mesh_near_samples)
+      .value("mesh_read", enum_name(o.mesh_read))
       .value("seed", static_cast<long long>(o.seed))
       .end_object();
 }
@@ -114,6 +115,8 @@ GatherOptions read_gather_options(const JsonValue& v) {
         throw InputError(v.where, "the gather's mesh_near_distance is out of range");
       o.mesh_near_samples = static_cast<int>(r.integer("mesh_near_samples", 1, 65536));
     }
+    // Written before the mesh could be read smooth: flat.
+    o.mesh_read = r.has("mesh_read") ? read_enum<DiffuseMode>(r, "mesh_read") : DiffuseMode::kFlat;
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

@@ -79,8 +79,7 @@ DiffusePoint locate(const GatherContext& c, PatchId p, double u, double v) {
 }
 
 void add_diffuse(const GatherContext& c, const DiffusePoint& at, const Rgbf& w,
-                 std::vector<Term>& terms) {
-  const bool smooth = c.options.diffuse == DiffuseMode::kSmooth;
+                 std::vector<Term>& terms, bool smooth) {
   if (const ElementHierarchy* h = c.layout.hierarchy.get()) {
     thread_local std::vector<std::pair<std::int32_t, double>> weights;
     weights.clear();

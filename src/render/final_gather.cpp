@@ -461,7 +461,8 @@ class FinalGatherer {
   }
 
   // IndirectMode::kMesh: the diffuse part's light beyond the direct light, from the unknown(s)
-  // l under x: B_l - E_l - sum_o D(l, o) e_o (render/mesh_direct.h). B_l = E_l + d (mean
+  // l under x (mesh_read: the one under it, or smooth, bilinear in its corners' averages):
+  // B_l - E_l - sum_o D(l, o) e_o (render/mesh_direct.h). B_l = E_l + d (mean
   // arriving radiance), so this is d times what arrives at l from everything but the lights
   // themselves, with no d to apply again: each channel's weight is the chain's where d > 0.
   void mesh_reflected(const Shading& sh, const DiffusePoint& at, PixelTerms& terms) const {
@@ -470,7 +471,7 @@ class FinalGatherer {
     for (int c = 0; c < 3; ++c)
       if (!(d[c] > 0.0)) w[c] = 0.0;
     const std::size_t first = terms.unknowns.size();
-    add_reflected(at, scaled(w, 1.0), terms);
+    add_reflected(at, scaled(w, 1.0), terms, o_.mesh_read == DiffuseMode::kSmooth);
     const MeshDirect& md = *c_.direct;
     for (std::size_t k = first; k < terms.unknowns.size(); ++k) {
       const Term t = terms.unknowns[k];
@@ -661,11 +662,14 @@ class FinalGatherer {
     if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
   }
 
-  // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects.
-  void add_reflected(const DiffusePoint& at, const Rgbf& w, PixelTerms& terms) const {
-    gather_detail::add_diffuse(c_, at, w, terms.unknowns);
+  // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects; smooth
+  // where the options' diffuse mode or the caller (kMesh's read at the shading point) asks.
+  void add_reflected(const DiffusePoint& at, const Rgbf& w, PixelTerms& terms,
+                     bool smooth_here = false) const {
+    const bool smooth = smooth_here || o_.diffuse == DiffuseMode::kSmooth;
+    gather_detail::add_diffuse(c_, at, w, terms.unknowns, smooth);
     const PatchId j = at.patch;
-    if (o_.diffuse == DiffuseMode::kSmooth) {
+    if (smooth) {
       c_.corners.subtract_emission(j, at.u, at.v, w, terms.emission);
     } else if (c_.patches[j].emitter) {
       terms.emission.push_back({j, {-w[0], -w[1], -w[2]}});

@@ -118,7 +118,11 @@ DiffusePoint locate(const GatherContext& c, PatchId p, double u, double v);
 // w times B at a point, flat or smooth: the patch itself, its corners' averages, or with a
 // hierarchy the leaf (or the leaves' corners) under the point.
 void add_diffuse(const GatherContext& c, const DiffusePoint& at, const Rgbf& w,
-                 std::vector<Term>& terms);
+                 std::vector<Term>& terms, bool smooth);
+inline void add_diffuse(const GatherContext& c, const DiffusePoint& at, const Rgbf& w,
+                        std::vector<Term>& terms) {
+  add_diffuse(c, at, w, terms, c.options.diffuse == DiffuseMode::kSmooth);
+}
 inline void add_diffuse(const GatherContext& c, PatchId p, double u, double v, const Rgbf& w,
                         std::vector<Term>& terms) {
   add_diffuse(c, locate(c, p, u, v), w, terms);
