@@ -449,11 +449,13 @@ TEST(Cli, MeshNearFlagsReachTheGatherWithTheIndirectLightFromTheMesh) {
   struct Case {
     std::string flags;
     double distance, samples;
+    std::string read = "smooth";
   };
   const std::vector<Case> cases = {
       {" --indirect mesh --mesh-near-distance 0", 0.0, 64.0},
       {" --indirect mesh", 2.0, 64.0},
-      {" --indirect mesh --mesh-near-distance 0.5 --mesh-near-samples 100", 0.5, 100.0},
+      {" --indirect mesh --mesh-near-distance 0.5 --mesh-near-samples 100 --mesh-read flat", 0.5,
+       100.0, "flat"},
       {"", 0.0, 64.0},
       {" --mesh-near-distance 0.5", 0.0, 64.0}};
   std::vector<double> rays;
@@ -469,6 +471,7 @@ TEST(Cli, MeshNearFlagsReachTheGatherWithTheIndirectLightFromTheMesh) {
     const JsonValue* options = gather->find("options");
     EXPECT_EQ(options->find("mesh_near_distance")->number, c.distance) << c.flags;
     EXPECT_EQ(options->find("mesh_near_samples")->number, c.samples) << c.flags;
+    EXPECT_EQ(options->find("mesh_read")->string, c.read) << c.flags;
     rays.push_back(gather->find("rays")->number);
     bytes.push_back(test::read_text(img));
     // E / (1 - a) = 2 on average: every face emits, so with --indirect mesh the direct light is
@@ -481,8 +484,8 @@ TEST(Cli, MeshNearFlagsReachTheGatherWithTheIndirectLightFromTheMesh) {
   }
   EXPECT_GT(rays[1], 2.0 * rays[0]);
   EXPECT_EQ(bytes[3], bytes[4]);
-  for (const char* bad :
-       {" --mesh-near-distance -1", " --mesh-near-distance nan", " --mesh-near-samples 0"})
+  for (const char* bad : {" --mesh-near-distance -1", " --mesh-near-distance nan",
+                          " --mesh-near-samples 0", " --mesh-read sharp"})
     EXPECT_EQ(
         run("render " + furnace + " -o " + (dir / "x.pfm").string() + " --indirect mesh" + bad)
             .code,

@@ -115,8 +115,8 @@ GatherOptions read_gather_options(const JsonValue& v) {
         throw InputError(v.where, "the gather's mesh_near_distance is out of range");
       o.mesh_near_samples = static_cast<int>(r.integer("mesh_near_samples", 1, 65536));
     }
-    // Written before the mesh could be read smooth: flat.
-    o.mesh_read = r.has("mesh_read") ? read_enum<DiffuseMode>(r, "mesh_read") : DiffuseMode::kFlat;
+    // Written before the mesh's read at a point had its own mode: the diffuse mode's.
+    o.mesh_read = r.has("mesh_read") ? read_enum<DiffuseMode>(r, "mesh_read") : o.diffuse;
   }
   r.optional("specular");  // the classic flag of old headers (read_operator_metadata)
   return o;

@@ -4,10 +4,11 @@
 // Per pixel, a grid of finer rays finds the emission Le it sees along chains of delta lobes
 // (mirrors, up to mirror_depth bounces) (E). They are cast only where a pixel may need them:
 // where 4 coarse ones in it or in a neighbour (CoarseClasses) meet more than one path class or
-// a lamp, or a shading ray meets another class than theirs; elsewhere each would add the one
-// class and no Le. Per shading ray, along the same kind of chain, at
-// each surface point met, for the non-delta parts of its BRDF, the direct light and the first
-// bounce (eq. 11):
+// a lamp, a shading ray meets another class than theirs, or the pixel lies on the image's
+// border; elsewhere each is taken to add the one class and no Le (an approximation: a feature
+// thinner than the coarse rays' spacing can lie between them all). Per shading ray, along the same
+// kind of chain, at each surface point met, for the non-delta parts of its BRDF, the direct light
+// and the first bounce (eq. 11):
 //   - light samples: a stratified grid of points on the lights, drawn by area (LightSampler),
 //     each f Le_j cos_x / p_light with a shadow ray, weighted against the BRDF samples;
 //   - BRDF samples: cosine samples for the diffuse part d (weight d each), lobe samples for the
@@ -71,6 +72,8 @@ class FinalGatherer {
   // come from the same area, which a furnace checks to the pixel (with the two estimated
   // separately, a pixel across the edge between a mirror and a diffuse wall was off by several
   // percent). A path class no shading ray found is shaded once from one of its finer rays.
+  // shared (CoarseClasses::shared_around): the class the finer rays are taken to meet, cast
+  // only if a shading ray meets another; null: cast them.
   long long gather(int x, int y, PixelTerms& terms, const std::uint64_t* shared) const {
     terms.clear();
     long long rays = 0;
@@ -129,7 +132,7 @@ class FinalGatherer {
 
   // The path class that the pixel's coarse finer rays (kCoarseSide^2 of the emission grid's,
   // spread over the pixel) all meet, or none where they differ or one meets an emitter.
-  static constexpr int kCoarseSide = 2;
+  static constexpr int kCoarseSide = 2;  // CoarseClasses speaks of 4 rays
   std::optional<std::uint64_t> coarse_class(int x, int y, PixelTerms& scratch,
                                             long long& rays) const {
     const int n = o_.pixel_grid, g = o_.emission_grid;
@@ -137,7 +140,7 @@ class FinalGatherer {
     std::optional<std::uint64_t> shared;
     for (int a = 0; a < kCoarseSide; ++a)
       for (int b = 0; b < kCoarseSide; ++b) {
-        // Cells g/4 and g - 1 - g/4 along each side: fine ray m takes cell (n^2 + m) mod g^2.
+        // Fine ray m takes cell (n^2 + m) mod g^2 (pixel_ray).
         const int cell = coarse_cell(g, a) * g + coarse_cell(g, b);
         const int m = ((cell - n * n) % (g * g) + g * g) % (g * g);
         const Ray ray = pixel_ray(x, y, pixel, g, n * n + m, nullptr);
@@ -151,7 +154,9 @@ class FinalGatherer {
   }
 
  private:
-  static int coarse_cell(int g, int a) { return a == 0 ? g / 4 : g - 1 - g / 4; }
+  // Cell a of kCoarseSide spread evenly over g, so that with the neighbours' the coarse rays
+  // lie about g / kCoarseSide cells apart across pixel boundaries too (g = 8: cells 2 and 6).
+  static int coarse_cell(int g, int a) { return (2 * a + 1) * g / (2 * kCoarseSide); }
 
   // The pixel's emission_grid^2 finer rays: their Le (appended to terms) and path classes.
   long long fine_rays(int x, int y, std::uint64_t pixel, PixelTerms& terms,
@@ -471,7 +476,7 @@ class FinalGatherer {
     for (int c = 0; c < 3; ++c)
       if (!(d[c] > 0.0)) w[c] = 0.0;
     const std::size_t first = terms.unknowns.size();
-    add_reflected(at, scaled(w, 1.0), terms, o_.mesh_read == DiffuseMode::kSmooth);
+    add_reflected(at, scaled(w, 1.0), terms, o_.mesh_read);
     const MeshDirect& md = *c_.direct;
     for (std::size_t k = first; k < terms.unknowns.size(); ++k) {
       const Term t = terms.unknowns[k];
@@ -646,7 +651,7 @@ class FinalGatherer {
     const DiffusePoint at = locate(c_, j, h.u, h.v);
     const double near = near_share(sh.x, h.position, at.diameter);
     long long rays = 0;
-    if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms);
+    if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms, o_.diffuse);
     if (near > 0.0) rays += near_gather(h, -dir, w * near, rng, terms);
     return rays;
   }
@@ -662,11 +667,12 @@ class FinalGatherer {
     if (mis > 0.0) terms.emission.push_back({j, scaled(w, mis)});
   }
 
-  // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects; smooth
-  // where the options' diffuse mode or the caller (kMesh's read at the shading point) asks.
+  // w (B~_j - E~_j) at (u, v) of j (flat: w (B_j - E_j)): the diffuse light j reflects, read
+  // smooth or flat as the options' diffuse mode says, or for kMesh's read at the shading point
+  // as its mesh_read says.
   void add_reflected(const DiffusePoint& at, const Rgbf& w, PixelTerms& terms,
-                     bool smooth_here = false) const {
-    const bool smooth = smooth_here || o_.diffuse == DiffuseMode::kSmooth;
+                     DiffuseMode read) const {
+    const bool smooth = read == DiffuseMode::kSmooth;
     gather_detail::add_diffuse(c_, at, w, terms.unknowns, smooth);
     const PatchId j = at.patch;
     if (smooth) {
@@ -733,7 +739,7 @@ class FinalGatherer {
                                 lights * solid_angle_pdf(c_.lights, z, y, dir));
         if (mis > 0.0) terms.emission.push_back({k, scaled(wz, mis)});
       }
-      add_reflected(locate(c_, k, z.u, z.v), scaled(wz, 1.0), terms);
+      add_reflected(locate(c_, k, z.u, z.v), scaled(wz, 1.0), terms, o_.diffuse);
       add_link(k, j, scaled(wz, 1.0), terms);
     }
     return rays;
@@ -817,7 +823,8 @@ const std::uint64_t* CoarseClasses::shared_around(int x, int y) const {
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx) {
       const int u = x + dx, v = y + dy;
-      if (u < 0 || v < 0 || u >= width || v >= height) continue;
+      // At the image's border the neighbours beyond it are not there to guard: the finer rays.
+      if (u < 0 || v < 0 || u >= width || v >= height) return nullptr;
       const CoarseClass& c = at(u, v);
       if (!c.uniform || c.key != centre.key) return nullptr;
     }

@@ -134,7 +134,8 @@ struct CoarseClass {
   std::uint64_t key = 0;
   bool uniform = false;
 };
-// Those of image rows [first_row, first_row + rows), for the pixels of the rows between.
+// Those of image rows first_row onward (cls.size() / width of them): a block's rows and one more
+// on each side.
 struct CoarseClasses {
   int width = 0, height = 0;  // the image's
   int first_row = 0;
@@ -143,18 +144,18 @@ struct CoarseClasses {
     return cls[static_cast<std::size_t>(y - first_row) * static_cast<std::size_t>(width) +
                static_cast<std::size_t>(x)];
   }
-  // The class pixel (x, y) and its eight neighbours (those in the image) all share, or null.
-  // Where a pixel's own four rays and its neighbours' 32 meet one class and no emitter, an
-  // object's edge or a lamp's sliver within the pixel is unlikely, and its finer rays would all
-  // add the same class and no Le.
+  // The class pixel (x, y) and its eight neighbours all share, or null (also at the image's
+  // border). Where a pixel's own four rays and its neighbours' 32 meet one class and no emitter,
+  // its finer rays are taken to add that class and no Le: an edge or a lamp's sliver within the
+  // pixel would have to lie between them all (features thinner than about a third of a pixel).
   const std::uint64_t* shared_around(int x, int y) const;
 };
 
 // The terms of pixel (x, y); each returns the number of rays cast.
 long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms);
 // shared: the class its neighbourhood shares (CoarseClasses::shared_around), or null. Given, the
-// finer rays are cast only if a shading ray meets another class (else each would have added
-// that class and no Le).
+// finer rays are cast only if a shading ray meets another class (else each is taken to add that
+// class and no Le).
 long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms,
                              const std::uint64_t* shared = nullptr);
 // Pixel (x, y)'s coarse class; adds the rays cast to `rays`.

@@ -49,8 +49,9 @@
 //   Image img = apply_gather(g, solution.u, scene_emission(world->patches()));
 //
 // Cost: the patch gather casts pixels x sub-pixel rays x (1 + lobe samples + light samples)
-// rays. The final gather casts per pixel 4 coarse rays and, where they or its neighbours' meet
-// more than one path class or a lamp, emission_grid^2 finer ones, then per shading ray and hit
+// rays. The final gather casts per pixel 4 coarse rays and, where they or its neighbours' rays
+// meet more than one path class or a lamp (emission_grid_everywhere), emission_grid^2 finer
+// ones, then per shading ray and hit
 // light samples + gather samples (diffuse part, + reflector samples where a scene has them)
 // + lobe samples (glossy part) + 2 rays per mirror image (a light point and a mirror plane whose
 // outline lets it through), and 2 near_samples more where a sample lands near: about 710
@@ -119,11 +120,15 @@ struct GatherOptions {
   // mirrors), finer than pixel_grid because a lamp's edge pixels are far brighter than its
   // surroundings.
   int emission_grid = 8;
-  // Final gather: false casts the finer rays only where a pixel may need them: where 4 of them
-  // (2 x 2 of the grid, spread over the pixel), in the pixel and in each of its 8 neighbours, do
-  // not all meet the same objects along their mirror chains and no emitter, or where a shading
-  // ray meets other objects; elsewhere all of them would add one path class and no Le. true
-  // casts them at every pixel (as gathers written before the choice did).
+  // Final gather, emission_grid >= 4: false casts the finer rays only where a pixel may need
+  // them: where 4 of them (2 x 2 of the grid, spread evenly), in the pixel and in each of its 8
+  // neighbours, do not all meet the same objects along their mirror chains and no emitter,
+  // where a shading ray meets other objects, and on the image's border; elsewhere all of them
+  // are taken to add that one path class and no Le. An approximation: a feature thinner than
+  // about a third of a pixel can lie between all 36 (the same images at the scenes' own sizes,
+  // and for cornell-box and the mirror cube at 8 to 37 pixels a side). Where they are cast, the
+  // 4 are cast again with them (68).
+  // true casts them at every pixel (as gathers written before the choice did).
   bool emission_grid_everywhere = false;
   // Final gather: where a BRDF sample lands within near_distance diameters of the unknown it
   // reads (the patch it meets, or on a hierarchy the leaf under the hit), the diffuse light
@@ -165,9 +170,10 @@ struct GatherOptions {
   // bilinear in the averages at their corners (as the patch gather's smooth reads), or kFlat,
   // the mean of the one under it. The mean is the light of the whole unknown, not of the point:
   // smooth reads brought relative RMSE from 0.0463 to 0.0443 on cornell-box's hierarchy, 0.0625
-  // to 0.0606 on cornell-glossy's, 0.0453 to 0.0440 on the mirror cube's (one refinement pass,
-  // against 16,384 spp), 0.0479 to 0.0468 on its uniform mesh, in the same time (README, "The
-  // final gather": Smooth reads of the mesh).
+  // to 0.0606 on cornell-glossy's, 0.0694 to 0.0687 on the mirror cube's (one refinement pass;
+  // 0.0453 to 0.0440 against 16,384 spp), 0.0714 to 0.0708 on its uniform 50 mesh, in the same
+  // time (README, "The final gather": Smooth reads of the mesh). The gather samples' reads keep
+  // `diffuse`.
   DiffuseMode mesh_read = DiffuseMode::kSmooth;
   std::uint64_t seed = 11;
 
