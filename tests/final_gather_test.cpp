@@ -1011,20 +1011,16 @@ TEST(FinalGather, FileRecordsTheGatherAndOlderFilesReadAsThePatchGather) {
   EXPECT_EQ(all_finer.gather.emission_grid, 8);
 
   // Written before the mesh's read at a point had its own mode: it read as the diffuse mode.
-  q.gather.mesh_read = DiffuseMode::kSmooth;
-  write_prt(q, path);
-  EXPECT_EQ(read_prt(path).gather.mesh_read, DiffuseMode::kSmooth);
-  SeriesOperator flat_reads;
-  ASSERT_NO_FATAL_FAILURE(read_without(path, "\"mesh_read\"", "\"seed\"", flat_reads));
-  EXPECT_EQ(flat_reads.gather.mesh_read, DiffuseMode::kFlat);
-  EXPECT_EQ(flat_reads.gather.mesh_near_samples, 36);
-  q.gather.diffuse = DiffuseMode::kSmooth;
-  q.gather.mesh_read = DiffuseMode::kFlat;
-  write_prt(q, path);
-  EXPECT_EQ(read_prt(path).gather.mesh_read, DiffuseMode::kFlat);
-  SeriesOperator smooth_reads;
-  ASSERT_NO_FATAL_FAILURE(read_without(path, "\"mesh_read\"", "\"seed\"", smooth_reads));
-  EXPECT_EQ(smooth_reads.gather.mesh_read, DiffuseMode::kSmooth);
+  for (const DiffuseMode diffuse : {DiffuseMode::kFlat, DiffuseMode::kSmooth}) {
+    q.gather.diffuse = diffuse;
+    q.gather.mesh_read = diffuse == DiffuseMode::kFlat ? DiffuseMode::kSmooth : DiffuseMode::kFlat;
+    write_prt(q, path);
+    EXPECT_EQ(read_prt(path).gather.mesh_read, q.gather.mesh_read);
+    SeriesOperator before_reads;
+    ASSERT_NO_FATAL_FAILURE(read_without(path, "\"mesh_read\"", "\"seed\"", before_reads));
+    EXPECT_EQ(before_reads.gather.mesh_read, diffuse);
+    EXPECT_EQ(before_reads.gather.mesh_near_samples, 36);
+  }
   q.gather.diffuse = DiffuseMode::kFlat;
 
   // Written before the indirect light could come from the mesh: from rays.
