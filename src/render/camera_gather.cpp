@@ -454,8 +454,7 @@ class GatherRows {
 #pragma omp for schedule(dynamic, 1) reduction(+ : rays)
       for (int y = c.first_row; y < last; ++y)
         for (int x = 0; x < w; ++x)
-          c.cls[static_cast<std::size_t>(y - c.first_row) * static_cast<std::size_t>(w) +
-                static_cast<std::size_t>(x)] = final_gather_coarse(context_, x, y, terms, rays);
+          c.cls[c.index(x, y)] = final_gather_coarse(context_, x, y, terms, rays);
     }
     return rays;
   }

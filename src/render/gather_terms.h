@@ -140,10 +140,11 @@ struct CoarseClasses {
   int width = 0, height = 0;  // the image's
   int first_row = 0;
   std::vector<CoarseClass> cls;  // row-major from first_row
-  const CoarseClass& at(int x, int y) const {
-    return cls[static_cast<std::size_t>(y - first_row) * static_cast<std::size_t>(width) +
-               static_cast<std::size_t>(x)];
+  std::size_t index(int x, int y) const {
+    return static_cast<std::size_t>(y - first_row) * static_cast<std::size_t>(width) +
+           static_cast<std::size_t>(x);
   }
+  const CoarseClass& at(int x, int y) const { return cls[index(x, y)]; }
   // The class pixel (x, y) and its eight neighbours all share, or null (also at the image's
   // border). Where a pixel's own four rays and its neighbours' 32 meet one class and no emitter,
   // its finer rays are taken to add that class and no Le: an edge or a lamp's sliver within the
