@@ -439,7 +439,9 @@ def hierarchy_section(rep, verdicts):
     # configurations have only the first.
     configurations = (("", "hierarchical", "hierarchical"),
                       ("mesh_", "mesh", "hierarchical, --indirect mesh"),
-                      ("mesh1_", "mesh1", "hierarchical, --indirect mesh --refine-passes 1"))
+                      ("mesh1_", "mesh1", "hierarchical, --indirect mesh --refine-passes 1"),
+                      ("mesh60_", "mesh60", "hierarchical, --indirect mesh, tuned for time (roots 60, "
+                       "tau 0.07, one pass, --mesh-near-distance 1 --near-samples 0)"))
     for a, e in runs(rep, "mirror_cube_render"):
         if failed(e):
             continue
