@@ -266,6 +266,11 @@ long long patch_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& t
 using namespace gather_detail;
 
 namespace {
+// The least number of pixels a thread takes at a time: a piece of a block, or a run of the
+// coarse classes. Each pixel's rows are keyed by the pixel alone, so the pieces' size changes
+// only how the threads share the work, never the rows.
+constexpr std::int64_t kPiecePixels = 32;
+
 // Whether the world has a light and a planar mirror for the final gather's mirror images.
 bool has_mirror(const World& world) {
   if (world.lights().empty()) return false;
@@ -371,14 +376,17 @@ class GatherRows {
     bool keep_pieces = true;
   };
 
-  // Rows [r0, r1) into g and e (replaced), in parallel over image rows of pixels; returns the
+  // Rows [r0, r1) into g and e (replaced), in parallel over pieces of the range; returns the
   // rays cast. Each thread merges a pixel's terms in its own scratch and appends the merged row
   // to the piece of the block it is building, so nothing is allocated per pixel.
   long long build(std::int64_t r0, std::int64_t r1, Csr<Rgbf>& g, Csr<Rgbf>& e, Scratch& scratch,
                   Progress* progress = nullptr) const {
     const std::int64_t w = camera_.width;
     const bool final_gather = options_.kind == GatherKind::kFinal;
-    const std::int64_t chunk = w;  // pixels per piece: one image row
+    // Pixels per piece: an eighth of an image row, so that the threads' last pieces of a block
+    // end close together. With whole rows one thread could wait up to a row's time at the end of
+    // every block: a block of the room's 320-pixel rows is three rows, two for one thread.
+    const std::int64_t chunk = std::max<std::int64_t>(kPiecePixels, w / 8);
     const std::int64_t pieces = (r1 - r0 + chunk - 1) / chunk;
     std::vector<Piece>& piece = scratch.pieces;
     if (static_cast<std::int64_t>(piece.size()) < pieces) piece.resize(pieces);
@@ -412,7 +420,7 @@ class GatherRows {
           append_row(terms.unknowns, out.g);
           if (final_gather) append_row(terms.emission, out.e);
         }
-        if (progress) progress->advance();
+        if (progress) progress->advance(end - (r0 + k * chunk));
       }
     }
     g.clear();
@@ -451,10 +459,13 @@ class GatherRows {
 #pragma omp parallel
     {
       PixelTerms& terms = scratch.threads[static_cast<std::size_t>(omp_get_thread_num())].terms;
-#pragma omp for schedule(dynamic, 1) reduction(+ : rays)
-      for (int y = c.first_row; y < last; ++y)
-        for (int x = 0; x < w; ++x)
-          c.cls[c.index(x, y)] = final_gather_coarse(context_, x, y, terms, rays);
+      const std::int64_t first = static_cast<std::int64_t>(c.first_row) * w;
+      const std::int64_t count = static_cast<std::int64_t>(last - c.first_row) * w;
+#pragma omp for schedule(dynamic, kPiecePixels) reduction(+ : rays)
+      for (std::int64_t k = 0; k < count; ++k) {
+        const int x = static_cast<int>((first + k) % w), y = static_cast<int>((first + k) / w);
+        c.cls[c.index(x, y)] = final_gather_coarse(context_, x, y, terms, rays);
+      }
     }
     return rays;
   }
@@ -570,7 +581,7 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
   g.height = camera.height;
   g.options = rows.options();
   Progress progress(options.kind == GatherKind::kFinal ? "final gather" : "camera gather",
-                    camera.height);
+                    static_cast<long long>(camera.width) * camera.height);
   GatherRows::Scratch scratch;
   scratch.keep_pieces = false;
   g.rays = rows.build(0, static_cast<std::int64_t>(camera.width) * camera.height, g.g, g.e, scratch,
@@ -603,10 +614,10 @@ GatherWork for_each_gather_block(
   }
   const GatherRows& rows = *gather.deferred;
   const std::int64_t w = rows.width(), total = w * rows.height();
-  // Whole image rows per block, so each block's pieces are whole rows too.
+  // Whole image rows per block: the finer rays' coarse classes are kept by rows.
   const std::int64_t block = std::max<std::int64_t>(1, block_pixels / w) * w;
   Progress progress(rows.options().kind == GatherKind::kFinal ? "final gather" : "camera gather",
-                    rows.height());
+                    static_cast<long long>(rows.width()) * rows.height());
   Csr<Rgbf> g, e;
   GatherRows::Scratch scratch;  // with g and e, reused from block to block
   for (std::int64_t r0 = 0; r0 < total; r0 += block) {
