@@ -30,24 +30,51 @@ void compact(std::vector<Entry>& row) {
   row.resize(w);
 }
 
+// Reflector i's form factors F_ij by j and its links' unknowns by k (-1: no link i -> k), laid
+// out densely while i's transfer entries are read, so that none of them searches a row (the
+// room's 7.4 million entries spent a second in those searches). One per thread, a float and
+// an index per patch; filled for one reflector at a time and cleared after it.
+class ReflectorLookup {
+ public:
+  explicit ReflectorLookup(PatchId n) : f_(n, 0.0f), link_(n, -1) {}
+  void fill(const UnknownLayout& layout, const FormFactors& ff, PatchId i) {
+    for (auto [j, f_ij] : ff.f.row(i)) f_[j] = f_ij;
+    for (auto l = layout.link_start[i]; l < layout.link_start[i + 1]; ++l)
+      link_[layout.links[l].to] = layout.num_patches + l;
+  }
+  void clear(const UnknownLayout& layout, const FormFactors& ff, PatchId i) {
+    for (auto [j, f_ij] : ff.f.row(i)) f_[j] = 0.0f;
+    for (auto l = layout.link_start[i]; l < layout.link_start[i + 1]; ++l)
+      link_[layout.links[l].to] = -1;
+  }
+  double f(PatchId j) const { return f_[j]; }              // ff.at(i, j)
+  Eigen::Index link(PatchId k) const { return link_[k]; }  // layout.link_unknown(i, k)
+
+ private:
+  std::vector<float> f_;
+  std::vector<Eigen::Index> link_;
+};
+
 // Rows of the links of reflector i, eq. 7: S_{i->k} = s_i sum_j W_jik (B_j + S_{j->i}) with
 // W_jik = R_jik F_ij / F_ik, from i's transfer entries. rows[l - link_start[i]] is link l's row.
 void reflector_rows(const UnknownLayout& layout, const FormFactors& ff, PatchId i,
                     const TransferEntry* entries, std::size_t count,
-                    std::vector<std::vector<Entry>>& rows) {
+                    std::vector<std::vector<Entry>>& rows, ReflectorLookup& lookup) {
   const auto first = layout.link_start[i], last = layout.link_start[i + 1];
   rows.resize(last - first);
   for (auto& r : rows) r.clear();
+  lookup.fill(layout, ff, i);
   for (std::size_t e = 0; e < count; ++e) {
     PatchId j = entries[e].from, k = entries[e].to;
-    Eigen::Index row = layout.link_unknown(i, k);
+    Eigen::Index row = lookup.link(k);
     if (row < 0) continue;
-    double w = entries[e].fraction * ff.at(i, j) / ff.at(i, k);
+    double w = entries[e].fraction * lookup.f(j) / lookup.f(k);
     auto& r = rows[row - layout.num_patches - first];
     r.push_back({j, w});
     Eigen::Index source = layout.link_unknown(j, i);
     if (source >= 0) r.push_back({static_cast<std::int32_t>(source), w});
   }
+  lookup.clear(layout, ff, i);
   for (auto& r : rows) {
     compact(r);
     for (auto& e : r) e.weight = static_cast<float>(e.weight);  // as the stored operator keeps it
@@ -198,24 +225,40 @@ TransportOperator build_transport(const PatchSet& patches, const std::vector<Mat
   }
   t.nnz_diffuse_ = t.weights_.nnz();
 
-  // Specular rows, eq. 7 (reflector_rows), stored unless they are recomputed on the fly.
-  std::vector<std::vector<Entry>> link_rows(links.size()), rows;
+  // Specular rows, eq. 7 (reflector_rows), stored unless they are recomputed on the fly. Each
+  // reflector's rows are its own (a reflector a task); they are laid out in order below.
+  std::vector<std::vector<Entry>> link_rows(links.size());
   if (specular && !on_the_fly) {
-    std::vector<TransferEntry> entries;
-    for (PatchId i = 0; i < n; ++i) {
-      entries.clear();
-      for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e)
-        entries.push_back({specular->from[e], specular->to[e], specular->fraction[e]});
-      reflector_rows(t.layout_, ff, i, entries.data(), entries.size(), rows);
-      for (size_t r = 0; r < rows.size(); ++r)
-        link_rows[t.layout_.link_start[i] + r] = std::move(rows[r]);
+#pragma omp parallel
+    {
+      std::vector<TransferEntry> entries;
+      std::vector<std::vector<Entry>> rows;
+      ReflectorLookup lookup(n);
+#pragma omp for schedule(dynamic, 16)
+      for (PatchId i = 0; i < n; ++i) {
+        if (t.layout_.link_start[i + 1] == t.layout_.link_start[i]) continue;
+        entries.clear();
+        for (auto e = specular->start[i]; e < specular->start[i + 1]; ++e)
+          entries.push_back({specular->from[e], specular->to[e], specular->fraction[e]});
+        reflector_rows(t.layout_, ff, i, entries.data(), entries.size(), rows, lookup);
+        for (size_t r = 0; r < rows.size(); ++r)
+          link_rows[t.layout_.link_start[i] + r] = std::move(rows[r]);
+      }
     }
   }
+  std::size_t entries = t.weights_.column.size();
+  for (const auto& r : link_rows) entries += r.size();
+  t.weights_.column.reserve(entries);
+  t.weights_.value.reserve(entries);
+  t.weights_.start.reserve(t.weights_.start.size() + links.size());
+  t.row_colour_.reserve(t.row_colour_.size() + links.size());
+  t.layout_.flux_weight.reserve(t.layout_.flux_weight.size() + links.size());
   for (LinkId l = 0; l < t.num_links(); ++l) {
     for (const auto& e : link_rows[l]) {
       t.weights_.column.push_back(e.column);
       t.weights_.value.push_back(static_cast<float>(e.weight));
     }
+    std::vector<Entry>().swap(link_rows[l]);  // copied: not held twice
     t.weights_.push_row();
     const Link& link = links[l];
     t.row_colour_.push_back(materials[patches[link.from].material].specular.cast<float>());
@@ -244,12 +287,13 @@ void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen
   const OnTheFlySpecular& src = *on_the_fly_;
   const auto n = static_cast<PatchId>(layout_.num_patches);
   auto one = [&](PatchId i, std::vector<TransferEntry>& entries,
-                 std::vector<std::vector<Entry>>& rows, std::vector<double>& acc) {
+                 std::vector<std::vector<Entry>>& rows, ReflectorLookup& lookup,
+                 std::vector<double>& acc) {
     if (layout_.link_start[i + 1] == layout_.link_start[i]) return;
     entries.clear();
     specular_entries_of(*src.patches, (*src.materials)[(*src.patches)[i].material], *src.ff,
                         *src.caster, src.options, i, entries);
-    reflector_rows(layout_, *src.ff, i, entries.data(), entries.size(), rows);
+    reflector_rows(layout_, *src.ff, i, entries.data(), entries.size(), rows, lookup);
     for (size_t r = 0; r < rows.size(); ++r) {
       const Eigen::Index row = n + layout_.link_start[i] + static_cast<Eigen::Index>(r);
       std::fill(acc.begin(), acc.end(), 0.0);
@@ -267,17 +311,19 @@ void TransportOperator::recompute_link_rows(const double* in, double* out, Eigen
   if (in_place) {  // Gauss-Seidel: reflectors in order, as the stored rows are
     std::vector<TransferEntry> entries;
     std::vector<std::vector<Entry>> rows;
+    ReflectorLookup lookup(n);
     std::vector<double> acc(width);
-    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, acc);
+    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, lookup, acc);
     return;
   }
 #pragma omp parallel
   {
     std::vector<TransferEntry> entries;
     std::vector<std::vector<Entry>> rows;
+    ReflectorLookup lookup(n);
     std::vector<double> acc(width);
 #pragma omp for schedule(dynamic, 1)
-    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, acc);
+    for (PatchId i = 0; i < n; ++i) one(i, entries, rows, lookup, acc);
   }
 }
 
