@@ -352,7 +352,7 @@ class GatherRows {
   int height() const { return camera_.height; }
   const GatherOptions& options() const { return options_; }
 
-  // One image row's part of a block, built by one thread.
+  // A run of a block's pixels (kPiecePixels or more, across rows), built by one thread.
   struct Piece {
     Csr<Rgbf> g, e;
   };
@@ -446,7 +446,7 @@ class GatherRows {
 
  private:
   // The coarse classes of the image rows that pixels [r0, r1) and their neighbours lie in, into
-  // scratch.coarse, in parallel over rows; returns the rays cast.
+  // scratch.coarse, in parallel over runs of kPiecePixels pixels; returns the rays cast.
   long long coarse_classes(std::int64_t r0, std::int64_t r1, Scratch& scratch) const {
     const int w = camera_.width, h = camera_.height;
     CoarseClasses& c = scratch.coarse;
@@ -617,7 +617,7 @@ GatherWork for_each_gather_block(
   // Whole image rows per block: the finer rays' coarse classes are kept by rows.
   const std::int64_t block = std::max<std::int64_t>(1, block_pixels / w) * w;
   Progress progress(rows.options().kind == GatherKind::kFinal ? "final gather" : "camera gather",
-                    static_cast<long long>(rows.width()) * rows.height());
+                    total);
   Csr<Rgbf> g, e;
   GatherRows::Scratch scratch;  // with g and e, reused from block to block
   for (std::int64_t r0 = 0; r0 < total; r0 += block) {

@@ -25,7 +25,6 @@ Progress::Progress(std::string stage, long long total, bool visible)
     : stage_(std::move(stage)),
       total_(total),
       start_(std::chrono::steady_clock::now()),
-      last_draw_(start_),
       visible_(visible) {}
 
 Progress::~Progress() { finish(); }
@@ -33,11 +32,13 @@ Progress::~Progress() { finish(); }
 void Progress::advance(long long n) {
   long long done = done_.fetch_add(n, std::memory_order_relaxed) + n;
   if (!visible_ || !enabled()) return;
-  auto now = std::chrono::steady_clock::now();
-  if (now - last_draw_ < std::chrono::milliseconds(200)) return;
+  const long long now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                            std::chrono::steady_clock::now() - start_)
+                            .count();
+  if (now - last_draw_ns_.load(std::memory_order_relaxed) < 200'000'000) return;  // 0.2 s
   std::unique_lock<std::mutex> lock(draw_mutex_, std::try_to_lock);
   if (!lock.owns_lock() || finished_) return;
-  last_draw_ = now;
+  last_draw_ns_.store(now, std::memory_order_relaxed);
   draw(done);
 }
 

@@ -37,7 +37,9 @@ class Progress {
   std::string stage_;
   long long total_;
   std::atomic<long long> done_{0};
-  std::chrono::steady_clock::time_point start_, last_draw_;
+  std::chrono::steady_clock::time_point start_;
+  // When it last drew, in nanoseconds after start_: read by every advance() outside the lock.
+  std::atomic<long long> last_draw_ns_{0};
   std::mutex draw_mutex_;
   bool finished_ = false;
   bool visible_ = true;
