@@ -271,6 +271,11 @@ namespace {
 // only how the threads share the work, never the rows.
 constexpr std::int64_t kPiecePixels = 32;
 
+// The display of a gather's progress, counted in pixels.
+Progress gather_progress(const GatherOptions& o, std::int64_t pixels) {
+  return Progress(o.kind == GatherKind::kFinal ? "final gather" : "camera gather", pixels);
+}
+
 // Whether the world has a light and a planar mirror for the final gather's mirror images.
 bool has_mirror(const World& world) {
   if (world.lights().empty()) return false;
@@ -408,8 +413,8 @@ class GatherRows {
 #pragma omp for schedule(dynamic, 1) reduction(+ : rays)
       for (std::int64_t k = 0; k < pieces; ++k) {
         Piece& out = piece[k];
-        const std::int64_t end = std::min(r1, r0 + (k + 1) * chunk);
-        for (std::int64_t r = r0 + k * chunk; r < end; ++r) {
+        const std::int64_t begin = r0 + k * chunk, end = std::min(r1, begin + chunk);
+        for (std::int64_t r = begin; r < end; ++r) {
           const int x = static_cast<int>(r % w), y = static_cast<int>(r / w);
           rays += final_gather
                       ? final_gather_pixel(context_, x, y, terms,
@@ -420,7 +425,7 @@ class GatherRows {
           append_row(terms.unknowns, out.g);
           if (final_gather) append_row(terms.emission, out.e);
         }
-        if (progress) progress->advance(end - (r0 + k * chunk));
+        if (progress) progress->advance(end - begin);
       }
     }
     g.clear();
@@ -580,12 +585,11 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
   g.width = camera.width;
   g.height = camera.height;
   g.options = rows.options();
-  Progress progress(options.kind == GatherKind::kFinal ? "final gather" : "camera gather",
-                    static_cast<long long>(camera.width) * camera.height);
+  const std::int64_t pixels = static_cast<std::int64_t>(camera.width) * camera.height;
+  Progress progress = gather_progress(options, pixels);
   GatherRows::Scratch scratch;
   scratch.keep_pieces = false;
-  g.rays = rows.build(0, static_cast<std::int64_t>(camera.width) * camera.height, g.g, g.e, scratch,
-                      &progress);
+  g.rays = rows.build(0, pixels, g.g, g.e, scratch, &progress);
   progress.finish();
   g.seconds = watch.seconds();
   return g;
@@ -616,8 +620,7 @@ GatherWork for_each_gather_block(
   const std::int64_t w = rows.width(), total = w * rows.height();
   // Whole image rows per block: the finer rays' coarse classes are kept by rows.
   const std::int64_t block = std::max<std::int64_t>(1, block_pixels / w) * w;
-  Progress progress(rows.options().kind == GatherKind::kFinal ? "final gather" : "camera gather",
-                    total);
+  Progress progress = gather_progress(rows.options(), total);
   Csr<Rgbf> g, e;
   GatherRows::Scratch scratch;  // with g and e, reused from block to block
   for (std::int64_t r0 = 0; r0 < total; r0 += block) {

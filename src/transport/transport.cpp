@@ -39,19 +39,21 @@ class ReflectorLookup {
  public:
   explicit ReflectorLookup(PatchId n) : f_(n, 0.0f), link_(n, -1) {}
   void fill(const UnknownLayout& layout, const FormFactors& ff, PatchId i) {
-    for (auto [j, f_ij] : ff.f.row(i)) f_[j] = f_ij;
-    for (auto l = layout.link_start[i]; l < layout.link_start[i + 1]; ++l)
-      link_[layout.links[l].to] = layout.num_patches + l;
+    mark(layout, ff, i, true);
   }
   void clear(const UnknownLayout& layout, const FormFactors& ff, PatchId i) {
-    for (auto [j, f_ij] : ff.f.row(i)) f_[j] = 0.0f;
-    for (auto l = layout.link_start[i]; l < layout.link_start[i + 1]; ++l)
-      link_[layout.links[l].to] = -1;
+    mark(layout, ff, i, false);
   }
   double f(PatchId j) const { return f_[j]; }              // ff.at(i, j)
   Eigen::Index link(PatchId k) const { return link_[k]; }  // layout.link_unknown(i, k)
 
  private:
+  // i's entries set to their values, or back to none.
+  void mark(const UnknownLayout& layout, const FormFactors& ff, PatchId i, bool set) {
+    for (auto [j, f_ij] : ff.f.row(i)) f_[j] = set ? f_ij : 0.0f;
+    for (auto l = layout.link_start[i]; l < layout.link_start[i + 1]; ++l)
+      link_[layout.links[l].to] = set ? layout.num_patches + l : -1;
+  }
   std::vector<float> f_;
   std::vector<Eigen::Index> link_;
 };
