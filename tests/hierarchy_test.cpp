@@ -231,10 +231,12 @@ TEST(Hierarchy, JacobiSweepsAreThePowerSeries) {
 }
 
 // Every column of T sums to at most a_max in flux form (section 5), and T is non-negative:
-// checked on T itself, a unit of flux at a time, for the leaves whose sums come nearest.
+// checked on T itself, a unit of flux at a time, for the leaves whose sums come nearest. Roots
+// of 50: on roots of 100 no column passes a_max since the slopes are bounded where the leaves
+// read them (hierarchy_make_operator.cpp), and the guard would have nothing to do.
 TEST(Hierarchy, ColumnSumsInFluxFormStayWithinTheLargestAlbedo) {
   Options o = hierarchical(0.1);
-  o.overrides.patch_size = 100;
+  o.overrides.patch_size = 50;
   auto sys = build(load_scene(test::scene_path("cornell-box")), o);
   const auto& t = sys->transport;
   const HierarchicalOperator& op = *t.hierarchy();
@@ -322,6 +324,24 @@ TEST(Hierarchy, RefinementGathersAtTheBlocksBase) {
   EXPECT_GT(near_density, 4.0 * far_density)
       << near << " leaves on " << near_area << " m2 along the base, " << far << " on " << far_area
       << " m2 half a metre away";
+}
+
+// T is non-negative entry by entry, every leaf tried, where the block meets the floor: there the
+// links' linear functions are steepest, and their slopes are shrunk only as far as the leaves'
+// centroids under each end ask (hierarchy.h), not the ends' corners, so the least kernel value a
+// leaf reads is about zero on many links.
+TEST(Hierarchy, EveryLeafsColumnIsNonNegativeAtTheBlocksBase) {
+  auto sys = build(test::scene_from_json(kBlockUnderALamp), hierarchical(0.1, 1.0 / 32));
+  const auto& t = sys->transport;
+  const int leaves = sys->hierarchy->num_leaves();
+  ASSERT_GT(leaves, 4 * sys->hierarchy->num_roots());
+  Field unit = Field::Zero(t.size(), 3), out;
+  for (int l = 0; l < leaves; ++l) {
+    unit.row(l).setOnes();
+    t.apply(unit, out);
+    unit.row(l).setZero();
+    ASSERT_GE(out.minCoeff(), 0.0) << "leaf " << l << " of " << leaves;
+  }
 }
 
 // The radiosity (channel 0) of the exposed leaves of `object`, a square floor in [0, cells *

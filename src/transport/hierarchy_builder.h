@@ -230,7 +230,9 @@ class HierarchyBuilder {
   void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of) const;
   Vec2 slope_of(std::int32_t r, const std::array<float, kOraclePoints>& points, LinkVisibility v,
                 double mean) const;
-  double corner_drop(std::int32_t r, const Vec2& slope) const;
+  // The most a slope takes at the leaves' centroids under node n of element r (leaf_box_).
+  double leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const;
+  void box_leaf_centroids(const HierarchicalOperator& op);
   void add_link(const ElementLink& l, const std::vector<std::int32_t>& node_of,
                 Csr<std::array<float, 5>>& f, std::vector<std::int64_t>& fill) const;
   void energy_guard(HierarchicalOperator& op);
@@ -293,6 +295,9 @@ class HierarchyBuilder {
   std::vector<ExposureMap> exposure_maps_;
   std::vector<std::array<std::int32_t, 2>> exposure_at_;
   std::vector<std::int32_t> node_element_;  // the operator's node -> element
+  // Per node: the box (u0, v0, u1, v1) of its leaves' centroids in the root's parameters, about
+  // the node's own centroid (box_leaf_centroids); only while the link rows are filled.
+  std::vector<std::array<double, 4>> leaf_box_;
   double b_ref_ = 0.0;
   bool lobes_ = false;  // some root has a lobe and the specular links are on
   bool transfer_done_ = false;

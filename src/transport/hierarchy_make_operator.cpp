@@ -75,14 +75,16 @@ void HierarchyBuilder::make_operator() {
   const std::vector<std::int32_t> node_of = lay_out_trees(*op);
   sum_inner_exposed();
   lay_out_nodes(*op, node_of);
-  fill_link_rows(*op, node_of);
-  sort_rows(op->links_);
   const auto n = static_cast<std::int32_t>(node_element_.size());
   op->centroid_.resize(n);
   for (std::int32_t k = 0; k < n; ++k) {
     const Vec2& c = el_[node_element_[k]].centroid_uv;
     op->centroid_[k] = {static_cast<float>(c.x()), static_cast<float>(c.y())};
   }
+  box_leaf_centroids(*op);
+  fill_link_rows(*op, node_of);
+  std::vector<std::array<double, 4>>().swap(leaf_box_);
+  sort_rows(op->links_);
   energy_guard(*op);
   h_.op_ = std::move(op);
 }
@@ -185,12 +187,46 @@ Vec2 HierarchyBuilder::slope_of(std::int32_t r, const std::array<float, kOracleP
   return fit.mean > 0.0 ? Vec2(fit.slope * (mean / fit.mean)) : Vec2::Zero();
 }
 
-// The most the slope takes at a corner of r.
-double HierarchyBuilder::corner_drop(std::int32_t r, const Vec2& slope) const {
+// Per node, the box of its leaves' centroids about its own, from the operator's float centroids
+// as the pull and the push take their differences: a leaf's box is its centroid alone, a
+// parent's holds its children's. Reverse pre-order, so that a child is complete first.
+void HierarchyBuilder::box_leaf_centroids(const HierarchicalOperator& op) {
+  const auto n = static_cast<std::int32_t>(node_element_.size());
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  std::vector<std::array<double, 4>> at(n, {kInf, kInf, -kInf, -kInf});  // absolute u0 v0 u1 v1
+  for (std::int32_t k = n - 1; k >= 0; --k) {
+    auto& b = at[k];
+    if (op.node_leaf_[k] >= 0)
+      b = {op.centroid_[k][0], op.centroid_[k][1], op.centroid_[k][0], op.centroid_[k][1]};
+    const std::int32_t p = op.parent_[k];
+    if (p < 0) continue;
+    auto& bp = at[p];
+    bp = {std::min(bp[0], b[0]), std::min(bp[1], b[1]), std::max(bp[2], b[2]),
+          std::max(bp[3], b[3])};
+  }
+  for (std::int32_t k = 0; k < n; ++k) {
+    const double cu = op.centroid_[k][0], cv = op.centroid_[k][1];
+    at[k] = {at[k][0] - cu, at[k][1] - cv, at[k][2] - cu, at[k][3] - cv};
+  }
+  leaf_box_ = std::move(at);
+}
+
+// The most the slope takes below its value at node n's centroid (element r) where the operator
+// reads it: at the centroids of the leaves under n, which lie in their box and in r (the smaller
+// of the two bounds: a triangle's box reaches beyond it). Bounded at
+// r's corners instead, the slopes were shrunk on links whose leaves never read the kernel
+// there, and with them the part of what a receiver gathers where the source's light and the
+// form factor vary together: cornell-box read from the mesh (roots 25, tau 0.05) had its walls,
+// floor and ceiling 0.08 to 0.13 percent dark against 16,384 spp, now 0.05 to 0.09.
+double HierarchyBuilder::leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const {
   const Element& e = el_[r];
-  double d = 0.0;
-  for (int k = 0; k < e.shape.corners; ++k) d = std::max(d, -slope.dot(e.uv[k] - e.centroid_uv));
-  return d;
+  double corners = 0.0;
+  for (int k = 0; k < e.shape.corners; ++k)
+    corners = std::max(corners, -slope.dot(e.uv[k] - e.centroid_uv));
+  const auto& b = leaf_box_[static_cast<std::size_t>(n)];
+  const double box = std::max(-slope.x() * b[0], -slope.x() * b[2]) +
+                     std::max(-slope.y() * b[1], -slope.y() * b[3]);
+  return std::max(0.0, std::min(corners, box));
 }
 
 // Link l's entry in the row of each end, at the rows' next free places (fill, taken atomically).
@@ -204,10 +240,13 @@ void HierarchyBuilder::add_link(const ElementLink& l, const std::vector<std::int
   Vec2 ga = slope_of(l.a, l.fa, l.visibility, f_ab), gb = slope_of(l.b, l.fb, l.visibility, f_ba);
   // The kernel between a point y of a and y' of b is taken as
   // G/(A'_a A'_b) + ga.(y - y_a)/A'_b + gb.(y' - y_b)/A'_a (times A'_b for F_ab): keep it
-  // non-negative everywhere, so that T is, by shrinking both slopes together.
-  const double need = aa * corner_drop(l.a, ga) + ab * corner_drop(l.b, gb);
-  if (need > g) {
-    const double scale = g > 0.0 ? g / need : 0.0;
+  // non-negative at every pair of leaves' centroids under a and b, so that T is, by shrinking
+  // both slopes together; with a margin for the floats they are stored in, since the leaves at
+  // a box's edges read the kernel's least value.
+  constexpr double kKeep = 1.0 - 1e-5;
+  const double need = aa * leaf_drop(l.a, ra, ga) + ab * leaf_drop(l.b, rb, gb);
+  if (need > kKeep * g) {
+    const double scale = g > 0.0 ? kKeep * g / need : 0.0;
     ga *= scale;
     gb *= scale;
   }
