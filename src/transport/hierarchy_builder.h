@@ -233,8 +233,10 @@ class HierarchyBuilder {
   // The most a slope takes at the leaves' centroids under node n of element r (leaf_box_).
   double leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const;
   void box_leaf_centroids(const HierarchicalOperator& op);
-  void add_link(const ElementLink& l, const std::vector<std::int32_t>& node_of,
-                Csr<std::array<float, 5>>& f, std::vector<std::int64_t>& fill) const;
+  struct LinkEntries {
+    std::array<float, 5> a, b;  // in a's row and in b's: F, the receiver's slopes, c
+  };
+  LinkEntries link_entries(const ElementLink& l, const std::vector<std::int32_t>& node_of) const;
   void energy_guard(HierarchicalOperator& op);
   void guard_trees(HierarchicalOperator& op, const std::vector<double>& sums, double a_max) const;
   // With lobes: the root form factors of the current links, the transfer (once, after the
