@@ -230,7 +230,8 @@ class HierarchyBuilder {
   void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of) const;
   Vec2 slope_of(std::int32_t r, const std::array<float, kOraclePoints>& points, LinkVisibility v,
                 double mean) const;
-  // The most a slope takes at the leaves' centroids under node n of element r (leaf_box_).
+  // How far the linear function of `slope` falls below its value at node n's centroid (element
+  // r) at most, over the box of the leaves' centroids under n (leaf_box_) or r, the smaller.
   double leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const;
   void box_leaf_centroids(const HierarchicalOperator& op);
   struct LinkEntries {

@@ -169,8 +169,9 @@ void HierarchyBuilder::lay_out_nodes(HierarchicalOperator& op,
 // entries of its own run of rows, so that no two threads write one row's counter (with the
 // places taken atomically instead, the two threads fought over the counters of rows they shared,
 // and filling the room's rows on two threads took longer than on one: 0.47 against 0.34 s; now
-// 0.25 s). The order in a row is then the links', and sort_rows puts it in column order (no two
-// links join one pair).
+// 0.25 s). Each thread scans the whole block for its rows' entries, work that grows with the
+// team: cheap on two threads, worth bucketing by owner on many. The order in a row is then the
+// links', and sort_rows puts it in column order (no two links join one pair).
 void HierarchyBuilder::fill_link_rows(HierarchicalOperator& op,
                                       const std::vector<std::int32_t>& node_of) const {
   const auto n = static_cast<std::int32_t>(node_element_.size());
@@ -279,9 +280,10 @@ HierarchyBuilder::LinkEntries HierarchyBuilder::link_entries(
   Vec2 ga = slope_of(l.a, l.fa, l.visibility, f_ab), gb = slope_of(l.b, l.fb, l.visibility, f_ba);
   // The kernel between a point y of a and y' of b is taken as
   // G/(A'_a A'_b) + ga.(y - y_a)/A'_b + gb.(y' - y_b)/A'_a (times A'_b for F_ab): keep it
-  // non-negative at every pair of leaves' centroids under a and b, so that T is, by shrinking
-  // both slopes together; with a margin for the floats they are stored in, since the leaves at
-  // a box's edges read the kernel's least value.
+  // non-negative over the boxes of the leaves' centroids under a and b (leaf_drop), so that T
+  // is, by shrinking both slopes together; with a margin of 1e-5 for the floats they are stored
+  // in, since a leaf may sit at the corner where the kernel is least (with none, entries of
+  // -1.5e-11 came out).
   constexpr double kKeep = 1.0 - 1e-5;
   const double need = aa * leaf_drop(l.a, ra, ga) + ab * leaf_drop(l.b, rb, gb);
   if (need > kKeep * g) {

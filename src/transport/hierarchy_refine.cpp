@@ -96,7 +96,9 @@ double HierarchyBuilder::spread(const ElementLink& l, std::int32_t r) const {
   if (l.visibility == LinkVisibility::kUntested) return *std::max_element(f.begin(), f.end());
   // What a link gives r is the fitted linear function, its slopes shrunk where it would go
   // negative: it misses the point values (times their visible fractions, for a partly hidden
-  // pair) by the fit's miss plus what the shrinking took.
+  // pair) by the fit's miss plus what the shrinking took. Judged at r's own corners alone: the
+  // operator bounds both ends' slopes together but over the boxes of their leaves' centroids
+  // (hierarchy_make_operator.cpp, leaf_drop), so it may shrink more or less than this says.
   const Element& e = el_[r];
   const LinearFit fit = fit_linear(e, f);
   const double scale = non_negative_scale(e, fit.slope, fit.mean);

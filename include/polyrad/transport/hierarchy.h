@@ -45,8 +45,9 @@
 //                                                                linear function at l
 // with g_rs the receiver slopes and c_rs = (A'_s / A'_r) g_sr. It is linear in x and stays
 // factored (a tree, the link rows, a tree): never a leaf x leaf matrix. The slopes are shrunk
-// together where the kernel they make would go negative at a pair of the leaves' centroids
-// under the link's ends (where T reads it), so T is non-negative, and
+// together where the kernel they make could go negative over the boxes of the leaves' centroids
+// under the link's ends (T reads it at those centroids alone; with a margin of 1e-5), so T is
+// non-negative, and
 // a linear function's area mean over the children is its value at their area centroids, so each
 // link delivers exactly its etendue's flux: in flux form (weights pi A'_l) the column of leaf l
 // sums to sum_{s above l} sum_{r <- s} rho_r (F_sr + g_sr . (y_l - y_s)). Near contacts, where
