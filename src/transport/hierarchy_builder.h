@@ -125,6 +125,15 @@ inline bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) 
 // Whether none of e lies inside other geometry (its exposed area is all of it).
 inline bool wholly_exposed(const Element& e) { return e.exposed >= e.shape.area * (1.0 - 1e-9); }
 
+// How far a linear function of the root parameters with these slopes falls below its value at
+// e's centroid, at most over e: a linear function's least value on a polygon is at a corner.
+inline double corner_drop(const Element& e, const Vec2& slope) {
+  double drop = 0.0;
+  for (int k = 0; k < e.shape.corners; ++k)
+    drop = std::max(drop, -slope.dot(e.uv[k] - e.centroid_uv));
+  return drop;
+}
+
 // The linear function of the root parameters that fits the point form factors f over element r
 // in least squares: its value at r's centroid, its slopes, and the most it misses a point by.
 struct LinearFit {
@@ -227,17 +236,22 @@ class HierarchyBuilder {
   std::vector<std::int32_t> lay_out_trees(HierarchicalOperator& op);
   void sum_inner_exposed();
   void lay_out_nodes(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of);
-  void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of) const;
+  // Per node: the box (u0, v0, u1, v1) of its leaves' centroids in the root's parameters, about
+  // the node's own centroid.
+  using LeafBoxes = std::vector<std::array<double, 4>>;
+  void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of,
+                      const LeafBoxes& boxes) const;
   Vec2 slope_of(std::int32_t r, const std::array<float, kOraclePoints>& points, LinkVisibility v,
                 double mean) const;
-  // How far the linear function of `slope` falls below its value at node n's centroid (element
-  // r) at most, over the box of the leaves' centroids under n (leaf_box_) or r, the smaller.
-  double leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const;
-  void box_leaf_centroids(const HierarchicalOperator& op);
+  LeafBoxes box_leaf_centroids(const HierarchicalOperator& op) const;
+  // How far the linear function of `slope` falls below its value at a node's centroid (element
+  // r) at most, over `box`, its leaves' centroids' box, or over r, the smaller.
+  double leaf_drop(std::int32_t r, const std::array<double, 4>& box, const Vec2& slope) const;
   struct LinkEntries {
     std::array<float, 5> a, b;  // in a's row and in b's: F, the receiver's slopes, c
   };
-  LinkEntries link_entries(const ElementLink& l, const std::vector<std::int32_t>& node_of) const;
+  LinkEntries link_entries(const ElementLink& l, const std::vector<std::int32_t>& node_of,
+                           const LeafBoxes& boxes) const;
   void energy_guard(HierarchicalOperator& op);
   void guard_trees(HierarchicalOperator& op, const std::vector<double>& sums, double a_max) const;
   // With lobes: the root form factors of the current links, the transfer (once, after the
@@ -298,9 +312,6 @@ class HierarchyBuilder {
   std::vector<ExposureMap> exposure_maps_;
   std::vector<std::array<std::int32_t, 2>> exposure_at_;
   std::vector<std::int32_t> node_element_;  // the operator's node -> element
-  // Per node: the box (u0, v0, u1, v1) of its leaves' centroids in the root's parameters, about
-  // the node's own centroid (box_leaf_centroids); only while the link rows are filled.
-  std::vector<std::array<double, 4>> leaf_box_;
   double b_ref_ = 0.0;
   bool lobes_ = false;  // some root has a lobe and the specular links are on
   bool transfer_done_ = false;

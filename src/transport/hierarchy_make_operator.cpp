@@ -79,6 +79,7 @@ std::pair<std::int32_t, std::int32_t> thread_rows(const std::vector<std::int64_t
 
 }  // namespace
 
+using hierarchy_detail::corner_drop;
 using hierarchy_detail::fit_linear;
 using hierarchy_detail::LinearFit;
 using hierarchy_detail::wholly_exposed;
@@ -95,9 +96,7 @@ void HierarchyBuilder::make_operator() {
     const Vec2& c = el_[node_element_[k]].centroid_uv;
     op->centroid_[k] = {static_cast<float>(c.x()), static_cast<float>(c.y())};
   }
-  box_leaf_centroids(*op);
-  fill_link_rows(*op, node_of);
-  std::vector<std::array<double, 4>>().swap(leaf_box_);
+  fill_link_rows(*op, node_of, box_leaf_centroids(*op));
   sort_rows(op->links_);
   energy_guard(*op);
   h_.op_ = std::move(op);
@@ -173,7 +172,8 @@ void HierarchyBuilder::lay_out_nodes(HierarchicalOperator& op,
 // team: cheap on two threads, worth bucketing by owner on many. The order in a row is then the
 // links', and sort_rows puts it in column order (no two links join one pair).
 void HierarchyBuilder::fill_link_rows(HierarchicalOperator& op,
-                                      const std::vector<std::int32_t>& node_of) const {
+                                      const std::vector<std::int32_t>& node_of,
+                                      const LeafBoxes& boxes) const {
   const auto n = static_cast<std::int32_t>(node_element_.size());
   std::vector<std::int64_t> count(n + 1, 0);
   for (const auto& chunk : links_)
@@ -196,7 +196,7 @@ void HierarchyBuilder::fill_link_rows(HierarchicalOperator& op,
       const std::int64_t m = std::min(kBlock, size - first);
 #pragma omp parallel for schedule(dynamic, 256)
       for (std::int64_t k = 0; k < m; ++k)
-        entries[k] = link_entries(chunk[first + k].expand(), node_of);
+        entries[k] = link_entries(chunk[first + k].expand(), node_of, boxes);
 #pragma omp parallel
       {
         // This thread's rows: those whose entries start in its share of them all.
@@ -231,10 +231,11 @@ Vec2 HierarchyBuilder::slope_of(std::int32_t r, const std::array<float, kOracleP
 // Per node, the box of its leaves' centroids about its own, from the operator's float centroids
 // as the pull and the push take their differences: a leaf's box is its centroid alone, a
 // parent's holds its children's. Reverse pre-order, so that a child is complete first.
-void HierarchyBuilder::box_leaf_centroids(const HierarchicalOperator& op) {
+HierarchyBuilder::LeafBoxes HierarchyBuilder::box_leaf_centroids(
+    const HierarchicalOperator& op) const {
   const auto n = static_cast<std::int32_t>(node_element_.size());
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  std::vector<std::array<double, 4>> at(n, {kInf, kInf, -kInf, -kInf});  // absolute u0 v0 u1 v1
+  LeafBoxes at(n, {kInf, kInf, -kInf, -kInf});  // absolute u0 v0 u1 v1
   for (std::int32_t k = n - 1; k >= 0; --k) {
     auto& b = at[k];
     if (op.node_leaf_[k] >= 0)
@@ -249,30 +250,26 @@ void HierarchyBuilder::box_leaf_centroids(const HierarchicalOperator& op) {
     const double cu = op.centroid_[k][0], cv = op.centroid_[k][1];
     at[k] = {at[k][0] - cu, at[k][1] - cv, at[k][2] - cu, at[k][3] - cv};
   }
-  leaf_box_ = std::move(at);
+  return at;
 }
 
-// The most the slope takes below its value at node n's centroid (element r) where the operator
-// reads it: at the centroids of the leaves under n, which lie in their box and in r (the smaller
-// of the two bounds: a triangle's box reaches beyond it). Bounded at
-// r's corners instead, the slopes were shrunk on links whose leaves never read the kernel
-// there, and with them the part of what a receiver gathers where the source's light and the
-// form factor vary together: cornell-box read from the mesh (roots 25, tau 0.05) had its walls,
+// The most the slope takes below its value at a node's centroid (element r, its leaves' box b)
+// where the operator reads it: at the centroids of the leaves under it, which lie in their box
+// and in r (the smaller of the two bounds: a triangle's box reaches beyond it). Bounded at r's
+// corners instead, the slopes were shrunk on links whose leaves never read the kernel there,
+// and with them the part of what a receiver gathers where the source's light and the form
+// factor vary together: cornell-box read from the mesh (roots 25, tau 0.05) had its walls,
 // floor and ceiling 0.08 to 0.13 percent dark against 16,384 spp, now 0.05 to 0.09.
-double HierarchyBuilder::leaf_drop(std::int32_t r, std::int32_t n, const Vec2& slope) const {
-  const Element& e = el_[r];
-  double corners = 0.0;
-  for (int k = 0; k < e.shape.corners; ++k)
-    corners = std::max(corners, -slope.dot(e.uv[k] - e.centroid_uv));
-  const auto& b = leaf_box_[static_cast<std::size_t>(n)];
+double HierarchyBuilder::leaf_drop(std::int32_t r, const std::array<double, 4>& b,
+                                   const Vec2& slope) const {
   const double box = std::max(-slope.x() * b[0], -slope.x() * b[2]) +
                      std::max(-slope.y() * b[1], -slope.y() * b[3]);
-  return std::max(0.0, std::min(corners, box));
+  return std::max(0.0, std::min(corner_drop(el_[r], slope), box));
 }
 
 // Link l's entries: in a's row (F_ab, its slopes over a, c_ab) and in b's.
 HierarchyBuilder::LinkEntries HierarchyBuilder::link_entries(
-    const ElementLink& l, const std::vector<std::int32_t>& node_of) const {
+    const ElementLink& l, const std::vector<std::int32_t>& node_of, const LeafBoxes& boxes) const {
   const std::int32_t ra = node_of[l.a], rb = node_of[l.b];
   const double aa = el_[l.a].exposed, ab = el_[l.b].exposed;
   const double g = aa * l.m;  // the etendue / pi
@@ -285,7 +282,7 @@ HierarchyBuilder::LinkEntries HierarchyBuilder::link_entries(
   // in, since a leaf may sit at the corner where the kernel is least (with none, entries of
   // -1.5e-11 came out).
   constexpr double kKeep = 1.0 - 1e-5;
-  const double need = aa * leaf_drop(l.a, ra, ga) + ab * leaf_drop(l.b, rb, gb);
+  const double need = aa * leaf_drop(l.a, boxes[ra], ga) + ab * leaf_drop(l.b, boxes[rb], gb);
   if (need > kKeep * g) {
     const double scale = g > 0.0 ? kKeep * g / need : 0.0;
     ga *= scale;

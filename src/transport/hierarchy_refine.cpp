@@ -38,11 +38,9 @@ Vec2 sample_uv(const Element& e, int k) {
 }
 
 // The factor (at most 1) by which slopes must shrink for a linear function of this mean to stay
-// non-negative on r: a linear function's least value on a polygon is at a corner.
+// non-negative on r.
 double non_negative_scale(const Element& r, const Vec2& slope, double mean) {
-  double drop = 0.0;
-  for (int k = 0; k < r.shape.corners; ++k)
-    drop = std::max(drop, -slope.dot(r.uv[k] - r.centroid_uv));
+  const double drop = hierarchy_detail::corner_drop(r, slope);
   return drop > mean ? std::max(mean, 0.0) / drop : 1.0;
 }
 
