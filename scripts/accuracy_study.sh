@@ -42,7 +42,7 @@ for scene in "${scenes[@]}"; do
     if [ -n "${READS:-}" ]; then read -r -a reads <<< "$READS"; fi
     for read in "${reads[@]}"; do
       case "$read" in
-        patch-*) flags=(--gather patch --diffuse "${read#patch-}") ;;
+        patch-*) flags=(--gather patch --mesh uniform --diffuse "${read#patch-}") ;;
         final) flags=(--gather final) ;;
         h*) flags=(--gather final --mesh hierarchical --link-tolerance "${read#h}") ;;
       esac

@@ -52,7 +52,7 @@ for scene in scenes:
     for s in settings:
         tag = s.replace("/", "-")
         counts = s.split("/")
-        flags = ["--gather", "patch"] if s == "patch" else \
+        flags = ["--gather", "patch", "--mesh", "uniform"] if s == "patch" else \
             ["--gather", "final", "--gather-samples", counts[0], "--light-samples", counts[1],
              "--near-samples", counts[2]] + (["--reflector-samples", counts[3]] if len(counts) > 3 else [])
         img, rep, cmp = (f"{out}/{scene}-{tag}.exr", f"{out}/{scene}-{tag}.json", f"{out}/{scene}-{tag}-cmp.json")

@@ -123,19 +123,20 @@ TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
   if (test::kUnderAddressSanitizer)
     GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";
   // A specular scene (the mirror's transfer entries) and a diffuse one at a finer mesh (the form
-  // factors), each with the stored patch gather, and a hierarchy of one refinement pass read by
-  // the final gather: what the report says was estimated against the process's peak resident
-  // set. The first writes an .exr (the codec module loaded beside the system), the others a .pfm
-  // (no module, none counted).
+  // factors), each uniform with the stored patch gather, a hierarchy of one refinement pass read
+  // by the final gather, and the patch gather's own hierarchy on a glossy scene: what the report
+  // says was estimated against the process's peak resident set. The first writes an .exr (the
+  // codec module loaded beside the system), the others a .pfm (no module, none counted).
   auto dir = test::temp_dir();
   const std::string report = (dir / "r.json").string();
   for (const std::string& args :
        {"render " + test::scene_path("cornell-mirror-cube") +
-            " --patch-size 35 --gather patch -o " + (dir / "x.exr").string(),
-        "render " + test::scene_path("cornell-box") + " --patch-size 25 --gather patch -o " +
-            (dir / "x.pfm").string(),
+            " --mesh uniform --patch-size 35 --gather patch -o " + (dir / "x.exr").string(),
         "render " + test::scene_path("cornell-box") +
-            " --mesh hierarchical --indirect mesh --refine-passes 1 -o " +
+            " --mesh uniform --patch-size 25 --gather patch -o " + (dir / "x.pfm").string(),
+        "render " + test::scene_path("cornell-box") +
+            " --mesh hierarchical --indirect mesh --refine-passes 1 -o " + (dir / "x.pfm").string(),
+        "render " + test::scene_path("cornell-glossy") + " --gather patch -o " +
             (dir / "x.pfm").string()}) {
     CommandRun r = run(args + " --report " + report);
     ASSERT_EQ(r.code, 0) << args << "\n" << r.err;
@@ -523,6 +524,39 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
     ASSERT_NE(h, nullptr) << c.command << c.flags;
     ASSERT_NE(h->find("link_tolerance"), nullptr) << c.command << c.flags;
     EXPECT_EQ(h->find("link_tolerance")->number, c.tau) << c.command << c.flags;
+  }
+}
+
+TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
+  // Where the pixels read the mesh (the patch gather) it is hierarchical; behind the final
+  // gather, and wherever rows need the uniform mesh's patches, uniform; a mesh given wins.
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "m.pfm").string(), rep = (dir / "m.json").string(),
+                    prt = (dir / "m.prt").string();
+  struct Case {
+    std::string command, flags, mesh;
+  };
+  const Case cases[] = {
+      {"render", "", "uniform"},
+      {"render", " --indirect mesh", "uniform"},
+      {"render", " --mesh hierarchical", "hierarchical"},
+      {"render", " --gather patch", "hierarchical"},
+      {"render", " --gather patch --mesh uniform", "uniform"},
+      {"render", " --gather patch --specular-on-the-fly", "uniform"},
+      {"render", " --gather patch --method series", "hierarchical"},
+      {"precompute", " --gather patch", "hierarchical"},
+      {"precompute", " --gather patch --output solution", "uniform"},
+      {"precompute", " --gather patch --reorder rcm", "uniform"},
+  };
+  for (const Case& c : cases) {
+    const std::string out = c.command == "render" ? img : prt;
+    CommandRun r = run(c.command + " " + test::scene_path("furnace") + " -o " + out + " --report " +
+                       rep + kQuickGather + c.flags);
+    ASSERT_EQ(r.code, 0) << c.command << c.flags << ": " << r.err;
+    const JsonValue report = test::read_json(rep);
+    EXPECT_EQ(report.find("system")->find("mesh")->string, c.mesh) << c.command << c.flags;
+    EXPECT_EQ(report.find("system")->find("hierarchy") != nullptr, c.mesh == "hierarchical")
+        << c.command << c.flags;
   }
 }
 

@@ -30,6 +30,18 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
         "without; use --output view (or --indirect rays)");
 }
 
+SystemOptions system_for_gather(SystemOptions system, const GatherOptions& gather,
+                                const SeriesOptions* series) {
+  system.hierarchy.link_tolerance = link_tolerance_for(gather, system.hierarchy.link_tolerance);
+  if (system.mesh) return system;
+  const bool uniform_rows =
+      system.specular_on_the_fly || (series && (series->output == SeriesOutput::kSolution ||
+                                                series->reorder == SeriesReorder::kRcm));
+  system.mesh = gather.kind == GatherKind::kPatch && !uniform_rows ? MeshKind::kHierarchical
+                                                                   : MeshKind::kUniform;
+  return system;
+}
+
 void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys,
                                double max_memory_bytes) {
   const World& w = *sys.world;
@@ -57,7 +69,8 @@ void require_precompute_memory(const SeriesOptions& series, RadiositySystem& sys
 }
 
 PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptions& o) {
-  check_series_options(o.series, o.system);
+  const SystemOptions chosen = system_for_gather(o.system, o.series.gather, &o.series);
+  check_series_options(o.series, chosen);
   Stopwatch watch;
   Report rep;
   rep.command = "precompute";
@@ -65,11 +78,9 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   rep.overrides = o.overrides;
   Scene scene = load_scene(scene_path, o.scene);
   rep.seconds.push_back({"load", watch.lap()});
-  // With the gather's link tolerance, if none is chosen, and the view rows' share of the memory
-  // estimate.
-  SystemOptions system = o.system;
-  system.hierarchy.link_tolerance =
-      link_tolerance_for(o.series.gather, o.system.hierarchy.link_tolerance);
+  // With the gather's mesh and link tolerance, if none is chosen, and the view rows' share of the
+  // memory estimate.
+  SystemOptions system = chosen;
   system.camera_bytes = rows_memory(o.series, apply_overrides(scene, o.overrides));
   auto sys = build_system(std::move(scene), o.overrides, system);
   require_precompute_memory(o.series, *sys, o.system.max_memory_bytes);

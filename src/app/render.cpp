@@ -133,9 +133,9 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
   RenderResult r;
   r.report.command = "render";
   r.report.method = enum_name(o.method);
-  if (o.method == RenderMethod::kSeries) check_series_options(o.series, o.system);
-  SystemOptions system = o.system;
-  system.hierarchy.link_tolerance = link_tolerance_for(o.gather, o.system.hierarchy.link_tolerance);
+  SystemOptions system = system_for_gather(o.system, o.gather,
+                                           o.method == RenderMethod::kSeries ? &o.series : nullptr);
+  if (o.method == RenderMethod::kSeries) check_series_options(o.series, system);
   r.world = load_world(scene_path, o, system, r.report);
   switch (o.method) {
     case RenderMethod::kIterative:

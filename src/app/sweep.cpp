@@ -198,7 +198,7 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
   auto base_row = [&](const char* method) {
     SweepRow r;
     r.method = method;
-    r.mesh = enum_name(d.system.mesh);
+    r.mesh = enum_name(d.system.mesh.value_or(MeshKind::kUniform));
     r.patch_size = patch_size;
     if (d.system.mesh == MeshKind::kHierarchical) r.link_tolerance = d.system.hierarchy.tolerance();
     r.patches = static_cast<long long>(sys->num_unknown_patches());  // a hierarchy's leaves
@@ -390,7 +390,11 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
 
   std::vector<SweepRow> rows;
   std::vector<Discretisation> meshes;
-  for (double ps : f.patch_sizes) meshes.push_back({ps, {}});
+  for (double ps : f.patch_sizes) {
+    Discretisation d{ps, {}};
+    d.system.mesh = MeshKind::kUniform;
+    meshes.push_back(d);
+  }
   for (double tau : f.link_tolerances) {
     Discretisation d{f.patch_sizes.front(), {}};
     d.system.mesh = MeshKind::kHierarchical;

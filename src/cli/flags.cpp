@@ -68,9 +68,12 @@ void SystemFlags::add(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   app.add_flag("--specular-on-the-fly", on_the_fly,
                "Recompute the specular transfer at every sweep instead of storing it");
-  add_enum_option(app, "--mesh", mesh,
-                  "Uniform patches linked pair by pair, or element trees on them linked at the "
-                  "level the light needs (lobes on links between the trees' roots)");
+  mesh_option = add_enum_option(
+      app, "--mesh", mesh,
+      "Uniform patches linked pair by pair, or element trees on them linked at the level the "
+      "light needs (lobes on links between the trees' roots) (default: hierarchical behind the "
+      "patch gather, uniform behind the final gather and where rows need the uniform mesh)");
+  mesh_option->default_str("");
   const std::string tolerances =
       number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather (" +
       number_text(link_tolerance_for(GatherKind::kPatch)) + " with --indirect mesh), " +
@@ -107,7 +110,7 @@ SystemOptions SystemFlags::system() const {
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
   o.specular_on_the_fly = on_the_fly;
   o.max_memory_bytes = max_memory_gib * (1ull << 30);
-  o.mesh = mesh;
+  if (mesh_option && mesh_option->count() > 0) o.mesh = mesh;
   o.hierarchy = hierarchy;
   return o;
 }

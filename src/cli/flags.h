@@ -55,7 +55,8 @@ struct SystemFlags {
   bool unsafe_albedo = false;
   double max_memory_gib = 0.0;
   MeshKind mesh = MeshKind::kUniform;
-  HierarchyOptions hierarchy;  // link_tolerance 0 unless given: the workflow chooses
+  CLI::Option* mesh_option = nullptr;  // unless it was given, the workflow chooses the mesh
+  HierarchyOptions hierarchy;          // link_tolerance 0 unless given: the workflow chooses
   void add(CLI::App& app);
   SceneOptions scene() const;
   SceneOverrides overrides() const;

@@ -43,7 +43,7 @@ struct RenderOptions {
   RenderMethod method = RenderMethod::kIterative;
   SceneOptions scene;
   SceneOverrides overrides;
-  SystemOptions system;  // a link tolerance left 0: link_tolerance_for(gather)
+  SystemOptions system;  // a mesh left unset, a link tolerance left 0: system_for_gather
   SolveOptions solve;                                    // iterative
   SeriesOptions series;                                  // series (its output is always view rows)
   PathTraceOptions pathtrace;                            // pathtrace
