@@ -93,6 +93,7 @@ Scene resolve_scene(const SceneDesc& desc) {
     obj.is_emitter = o.emission.has_value();
     obj.emission = o.emission.value_or(Rgb::Zero());
     obj.patch_size = o.patch_size.value_or(desc.patch_size);
+    obj.authored_patch_size = obj.patch_size;
 
     if (!o.polygon.empty()) {
       obj.faces.push_back(Face{o.polygon, 0});

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "polyrad/geometry/mesher.h"
 #include "polyrad/scene/scene.h"
 #include "polyrad/transport/system.h"
 #include "polyrad/util/machine.h"
@@ -28,6 +29,13 @@ constexpr double kRootEntryBytes = 35.0;
 // 120 bytes each (the builder's kept link, the finished link, its operator rows and the leaves),
 // from the peaks of cornell-box, cornell-glossy, the mirror cube and the room.
 constexpr double kRootPairBytes = 260.0;
+// That fit holds on the scenes' own patches. On roots finer or coarser than those, the links a
+// root pair adds or takes away are about one each, at the roots' level: what refinement adds
+// is set by where the light varies, not by the roots (cornell-box at tau 0.05, links less
+// visible root pairs: 125k, 200k, 231k and 179k at patch sizes 100, 50, 35 and 25). At 90
+// bytes a link (the peaks of cornell-box at 25 and 35: 86 and 80), estimate against peak went
+// from 0.74 / 1.81 / 2.41 to 1.4 / 1.2 / 1.1 at 100 / 35 / 25.
+constexpr double kRootLinkBytes = 90.0;
 constexpr double kVisibleShareOfFacing = 0.75;
 // Before meshing, work is refused only if it would not fit even were this share of the facing
 // pairs all that see each other: a cluttered scene whose pairs are mostly blocked is left to the
@@ -64,8 +72,27 @@ double targets_per_pair(const Material& m, int samples, double partners) {
   return std::min(m.is_delta() ? 0.4 * samples : 1.1 * samples, 2.0 * partners);
 }
 
-// The system's bytes from the counts.
-double system_bytes(double pairs, double reflector_pairs_targets, const SystemOptions& o) {
+// The visible pairs the scene would have on its own patches (SceneObject::authored_patch_size),
+// from those it has: they grow as the square of the patches. The pairs themselves where the
+// scene gives no sizes of its own (built in code) or keeps them.
+double authored_pairs(const Scene& scene, double pairs) {
+  Scene authored;
+  authored.objects = scene.objects;
+  bool moved = false;
+  for (SceneObject& o : authored.objects) {
+    if (!(o.authored_patch_size > 0.0) || o.authored_patch_size == o.patch_size) continue;
+    o.patch_size = o.authored_patch_size;
+    moved = true;
+  }
+  if (!moved) return pairs;
+  const double now = count_patches(scene), then = count_patches(authored);
+  return now > 0.0 ? pairs * (then / now) * (then / now) : pairs;
+}
+
+// The system's bytes from the counts: `pairs` visible root pairs, `authored` those on the
+// scene's own patches (the hierarchy's fit, above).
+double system_bytes(double pairs, double authored, double reflector_pairs_targets,
+                    const SystemOptions& o) {
   if (o.mesh == MeshKind::kHierarchical) {
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
     const double tau = std::max(1e-6, o.hierarchy.tolerance());
@@ -78,7 +105,10 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
     const double passes = kPassShare[std::clamp(o.hierarchy.passes, 0, 2)];
     const double growth =
         std::clamp(coarse * fine * passes, kMinRefinementGrowth, kMaxRefinementGrowth);
-    return pairs * kRootPairBytes * growth + transfer;
+    // Each root pair beyond (or short of) the scene's own adds (or takes away) one root link,
+    // never more than a pair of the fit costs at this tolerance.
+    const double root_link = std::min(kRootLinkBytes, kRootPairBytes * growth);
+    return authored * kRootPairBytes * growth + (pairs - authored) * root_link + transfer;
   }
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
 }
@@ -86,7 +116,7 @@ double system_bytes(double pairs, double reflector_pairs_targets, const SystemOp
 // The parts from the counts already in m (patches, visible pairs); reflectors: the patches of
 // each lobed material (a face's, or one patch at a time); reflector_partners: the visible
 // partners of a reflector patch, when measured (else the mean patch's).
-MemoryEstimate with_parts(MemoryEstimate m,
+MemoryEstimate with_parts(MemoryEstimate m, const Scene& scene,
                           const std::vector<std::pair<double, const Material*>>& reflectors,
                           const SystemOptions& options, double reflector_partners = -1.0) {
   // Transfer entries: each reflector patch's visible partners times the targets a pair reaches.
@@ -98,7 +128,10 @@ MemoryEstimate with_parts(MemoryEstimate m,
     entries += patches * partners * targets_per_pair(*mat, options.specular.samples, partners);
   m.base = kBaseBytes;
   m.world = m.patches * kPatchBytes;
-  m.system = system_bytes(m.visible_pairs, entries, options);
+  const double authored = options.mesh == MeshKind::kHierarchical
+                              ? authored_pairs(scene, m.visible_pairs)
+                              : m.visible_pairs;
+  m.system = system_bytes(m.visible_pairs, authored, entries, options);
   m.camera = options.camera_bytes;
   return m;
 }
@@ -141,7 +174,7 @@ MemoryEstimate estimate_memory(const Scene& scene, const SystemOptions& options)
     const Material& mat = scene.materials[scene.objects[f.object].material];
     if (mat.has_lobe()) reflectors.emplace_back(f.patches, &mat);
   }
-  return with_parts(m, reflectors, options);
+  return with_parts(m, scene, reflectors, options);
 }
 
 namespace {
@@ -197,9 +230,9 @@ MemoryEstimate estimate_memory(const World& world, const SystemOptions& options)
   }
   // The reflectors' partners sampled on their own: a glossy floor sees most of a room, half
   // again the mean patch's partners in scenes/room, and its transfer grows with them.
-  if (lobed.empty()) return with_parts(m, reflectors, options);
+  if (lobed.empty()) return with_parts(m, world.scene(), reflectors, options);
   const double partners = visible_share(world, lobed, 0x6c6f6265) * (m.patches - 1);
-  return with_parts(m, reflectors, options, partners);
+  return with_parts(m, world.scene(), reflectors, options, partners);
 }
 
 void require_memory_before_meshing(const MemoryEstimate& need, double budget,

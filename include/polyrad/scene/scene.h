@@ -31,6 +31,7 @@ struct SceneObject {
   Rgb emission = Rgb::Zero();
   bool is_emitter = false;  // has an "emission" key (even 0,0,0: still an addressable light)
   double patch_size = 0.0;
+  double authored_patch_size = 0.0;  // patch_size as the scene gives it; overrides leave it
   std::vector<Face> faces;
 };
 
