@@ -13,8 +13,10 @@
 //            a hierarchy: 260 bytes a visible root pair at link tolerance 0.05 and two
 //            refinement passes, scaled by (0.05 / tau)^0.6 above 0.05, (0.05 / tau)^0.8 down
 //            to 0.02 and then by (0.02 / tau)^1.5, by 0.4 with no pass after the first and 0.8
-//            with one, and the product kept within 0.2 and 64 times; with lobes the transfer
-//            on its roots and the root links' rows 35 bytes an entry
+//            with one, and the product kept within 0.2 and 64 times, for the root pairs of the
+//            scene's own patch sizes; each root pair beyond (or short of) those adds (or takes
+//            away) one root link, 90 bytes or that product's 260 if less; with lobes the
+//            transfer on its roots and the root links' rows 35 bytes an entry
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
 //            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
