@@ -328,14 +328,15 @@ void expect_same_json(const JsonValue& a, const JsonValue& b, const std::string&
 TEST(Cli, EveryPrecomputeOptionRoundTripsThroughTheFileIntoRelightsReport) {
   auto dir = test::temp_dir();
   const std::string scene = test::scene_path("cornell-box");
-  // The patch gather keeps this quick; one variant takes a small final gather, whose counts the
-  // header records too.
+  // The patch gather on the uniform mesh keeps this quick (one variant on the hierarchy, the
+  // patch gather's own mesh); one variant takes a small final gather, whose counts the header
+  // records too.
   const std::vector<std::string> variants = {
-      "--acceleration chebyshev --gather patch",
-      "--acceleration none --order 3 --gather patch",
+      "--acceleration chebyshev --gather patch --mesh uniform",
+      "--acceleration none --order 3 --gather patch --mesh uniform",
       "--basis object --gather patch",
       "--output solution --order 4 --gather patch",
-      "--precision half --gather patch",
+      "--precision half --gather patch --mesh uniform",
       "--reorder rcm --order 3 --gather patch",
       "--basis object --output solution --precision half --acceleration chebyshev --reorder rcm "
       "--gather final --pixel-grid 1 --gather-samples 4 --light-samples 4 --near-samples 1"};
@@ -548,6 +549,7 @@ TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
       {"render", " --gather patch --mesh uniform", "uniform"},
       {"render", " --gather patch --specular-on-the-fly", "uniform"},
       {"render", " --gather patch --method series", "hierarchical"},
+      {"render", " --gather patch --method series --reorder rcm", "uniform"},
       {"precompute", " --gather patch", "hierarchical"},
       {"precompute", " --gather patch --output solution", "uniform"},
       {"precompute", " --gather patch --reorder rcm", "uniform"},

@@ -926,5 +926,28 @@ TEST(Hierarchy, MemoryEstimateFollowsThePassesAndTheTolerance) {
         << tau;
 }
 
+TEST(Hierarchy, MemoryEstimateOnOtherRootsAddsOneLinkPerRootPair) {
+  // What refinement adds does not grow with the roots: on roots finer than the scene's own the
+  // hierarchy's share grows by about a third of its root pairs' growth (one 90-byte link a pair
+  // against the fit's 260 bytes), not by all of it; the scene's own size given again changes
+  // nothing, and a scene built in code records its sizes when first overridden.
+  Scene scene = load_scene(test::scene_path("cornell-box"));
+  for (SceneObject& obj : scene.objects) obj.patch_size = obj.authored_patch_size = 50.0;
+  const SystemOptions o = hierarchical(0.05).system;
+  const MemoryEstimate own = estimate_memory(scene, o);
+  const MemoryEstimate again = estimate_memory(apply_overrides(scene, {50.0}), o);
+  EXPECT_EQ(again.system, own.system);
+  const MemoryEstimate fine = estimate_memory(apply_overrides(scene, {25.0}), o);
+  const double pairs = fine.visible_pairs / own.visible_pairs;
+  ASSERT_GT(pairs, 8.0);
+  const double share = fine.system / own.system;
+  EXPECT_GT(share, 0.25 * pairs);
+  EXPECT_LT(share, 0.5 * pairs);
+  Scene in_code = scene;
+  for (SceneObject& obj : in_code.objects) obj.authored_patch_size = 0.0;
+  EXPECT_EQ(estimate_memory(in_code, o).system, own.system);
+  EXPECT_EQ(estimate_memory(apply_overrides(in_code, {25.0}), o).system, fine.system);
+}
+
 }  // namespace
 }  // namespace polyrad

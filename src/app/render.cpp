@@ -83,11 +83,17 @@ void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptio
   rep.solve = std::move(solution);
 }
 
-void render_series(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
-  auto sys = build_system(r.world, system);
+// The series a render folds: view rows behind the render's own gather.
+SeriesOptions render_series_options(const RenderOptions& o) {
   SeriesOptions so = o.series;
   so.output = SeriesOutput::kView;
   so.gather = o.gather;
+  return so;
+}
+
+void render_series(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
+  auto sys = build_system(r.world, system);
+  const SeriesOptions so = render_series_options(o);
   require_precompute_memory(so, *sys, system.max_memory_bytes);
   const SeriesOperator q = precompute_series(sys->transport, *r.world, so);
   const std::vector<float> e = q.column_emission();
@@ -133,9 +139,10 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
   RenderResult r;
   r.report.command = "render";
   r.report.method = enum_name(o.method);
-  SystemOptions system = system_for_gather(o.system, o.gather,
-                                           o.method == RenderMethod::kSeries ? &o.series : nullptr);
-  if (o.method == RenderMethod::kSeries) check_series_options(o.series, system);
+  const SeriesOptions series = render_series_options(o);
+  const bool folds = o.method == RenderMethod::kSeries;
+  SystemOptions system = system_for_gather(o.system, o.gather, folds ? &series : nullptr);
+  if (folds) check_series_options(series, system);
   r.world = load_world(scene_path, o, system, r.report);
   switch (o.method) {
     case RenderMethod::kIterative:

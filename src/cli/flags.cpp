@@ -72,7 +72,8 @@ void SystemFlags::add(CLI::App& app) {
       app, "--mesh", mesh,
       "Uniform patches linked pair by pair, or element trees on them linked at the level the "
       "light needs (lobes on links between the trees' roots) (default: hierarchical behind the "
-      "patch gather, uniform behind the final gather and where rows need the uniform mesh)");
+      "patch gather; uniform behind the final gather, where rows need the uniform mesh and where "
+      "no gather reads the solution)");
   mesh_option->default_str("");
   const std::string tolerances =
       number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather (" +

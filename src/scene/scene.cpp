@@ -58,7 +58,10 @@ std::string resolve_path(const std::string& directory, const std::string& relati
 
 Scene apply_overrides(Scene scene, const SceneOverrides& overrides) {
   if (overrides.patch_size > 0.0)
-    for (auto& o : scene.objects) o.patch_size = overrides.patch_size;
+    for (auto& o : scene.objects) {
+      if (!(o.authored_patch_size > 0.0)) o.authored_patch_size = o.patch_size;  // built in code
+      o.patch_size = overrides.patch_size;
+    }
   if (overrides.classic)
     for (auto& m : scene.materials) m = Material::lambert(m.name, m.diffuse);
   return scene;

@@ -73,18 +73,17 @@ double targets_per_pair(const Material& m, int samples, double partners) {
 }
 
 // The visible pairs the scene would have on its own patches (SceneObject::authored_patch_size),
-// from those it has: they grow as the square of the patches. The pairs themselves where the
-// scene gives no sizes of its own (built in code) or keeps them.
+// from those it has: they grow as the square of the patches. The pairs themselves where every
+// object keeps its own size or gives none.
 double authored_pairs(const Scene& scene, double pairs) {
+  auto moved = [](const SceneObject& o) {
+    return o.authored_patch_size > 0.0 && o.authored_patch_size != o.patch_size;
+  };
+  if (std::none_of(scene.objects.begin(), scene.objects.end(), moved)) return pairs;
   Scene authored;
   authored.objects = scene.objects;
-  bool moved = false;
-  for (SceneObject& o : authored.objects) {
-    if (!(o.authored_patch_size > 0.0) || o.authored_patch_size == o.patch_size) continue;
-    o.patch_size = o.authored_patch_size;
-    moved = true;
-  }
-  if (!moved) return pairs;
+  for (SceneObject& o : authored.objects)
+    if (moved(o)) o.patch_size = o.authored_patch_size;
   const double now = count_patches(scene), then = count_patches(authored);
   return now > 0.0 ? pairs * (then / now) * (then / now) : pairs;
 }

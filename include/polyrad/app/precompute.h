@@ -47,7 +47,7 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
 // The system that `render` and `precompute` build behind `gather`, with what the caller left
 // unset chosen for that gather: the link tolerance (link_tolerance_for) and the mesh. Where the
 // pixels read the mesh (the patch gather) it decides the image, and the hierarchical mesh gives
-// 0.27 to 0.59 of the uniform mesh's relative RMSE on the same patches (cornell-box 0.097
+// 0.26 to 0.59 of the uniform mesh's relative RMSE on the same patches (cornell-box 0.097
 // against 0.352; the room 0.096 against 0.163), less than a uniform mesh of half the patch size
 // in less time (README, "The mesh follows the gather"). Behind the final gather the mesh carries
 // only the light one bounce away, and on a room-sized scene the uniform mesh reaches the same

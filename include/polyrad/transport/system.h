@@ -44,7 +44,7 @@ struct EnumNames<MeshKind> {
 
 struct SystemOptions {
   FormFactorOptions form_factors;
-  // Unset: the workflow's gather chooses (system_for_gather, render/camera_gather.h); where none
+  // Unset: the workflow's gather chooses (system_for_gather, app/precompute.h); where none
   // does, build_system takes the uniform mesh.
   std::optional<MeshKind> mesh;
   // With MeshKind::kHierarchical (its form factor options are taken from the field above).
