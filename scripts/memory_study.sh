@@ -51,13 +51,13 @@ run() {  # [EXT=pfm] run LABEL COMMAND ARGS...: one run, its report kept as DIR/
 }
 
 box="$scenes/cornell-box.json" mirror="$scenes/cornell-mirror-cube.json"
-run "render cornell-box, patch gather" render "$box" --mesh uniform --gather patch
-run "render cornell-box, patch size 25, patch gather" render "$box" --patch-size 25 --mesh uniform --gather patch
-run "render cornell-box, patch size 17, patch gather" render "$box" --patch-size 17 --mesh uniform --gather patch
+run "render cornell-box, uniform, patch gather" render "$box" --mesh uniform --gather patch
+run "render cornell-box, uniform, patch size 25, patch gather" render "$box" --patch-size 25 --mesh uniform --gather patch
+run "render cornell-box, uniform, patch size 17, patch gather" render "$box" --patch-size 17 --mesh uniform --gather patch
 run "render cornell-mirror-cube (final gather)" render "$mirror"
-run "render cornell-mirror-cube, patch size 35, patch gather" render "$mirror" --patch-size 35 --mesh uniform --gather patch
-run "render cornell-mirror-cube, patch size 25, patch gather" render "$mirror" --patch-size 25 --mesh uniform --gather patch
-run "render cornell-mirror-cube, patch size 17, patch gather" render "$mirror" --patch-size 17 --mesh uniform --gather patch
+run "render cornell-mirror-cube, uniform, patch size 35, patch gather" render "$mirror" --patch-size 35 --mesh uniform --gather patch
+run "render cornell-mirror-cube, uniform, patch size 25, patch gather" render "$mirror" --patch-size 25 --mesh uniform --gather patch
+run "render cornell-mirror-cube, uniform, patch size 17, patch gather" render "$mirror" --patch-size 17 --mesh uniform --gather patch
 run "render cornell-glossy, patch size 35" render "$scenes/cornell-glossy.json" --patch-size 35
 run "render cornell-box, hierarchical, tau 0.05" render "$box" --mesh hierarchical --link-tolerance 0.05
 run "render cornell-mirror-cube, hierarchical, tau 0.05" render "$mirror" --mesh hierarchical --link-tolerance 0.05
@@ -70,7 +70,7 @@ EXT=pfm run "render cornell-box, hierarchical (.pfm)" render "$box" --mesh hiera
 EXT=pfm run "render cornell-mirror-cube, hierarchical, mesh mode, one pass (.pfm)" render \
   "$mirror" --mesh hierarchical --indirect mesh --refine-passes 1
 big="$(at "$box" 1024)"
-run "render cornell-box at 1024 x 1024, patch gather" render "$big" --mesh uniform --gather patch
+run "render cornell-box at 1024 x 1024, uniform, patch gather" render "$big" --mesh uniform --gather patch
 run "render cornell-box at 1024 x 1024, final gather" render "$big"
 run "precompute cornell-box at 512 x 512 (view rows)" precompute "$(at "$box" 512)"
 run "precompute cornell-box at 1024 x 1024" precompute "$big"
