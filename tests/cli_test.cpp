@@ -534,7 +534,8 @@ TEST(Cli, LinkToleranceFollowsTheGatherUnlessGiven) {
 
 TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
   // Where the pixels read the mesh (the patch gather) it is hierarchical; behind the final
-  // gather, and wherever rows need the uniform mesh's patches, uniform; a mesh given wins.
+  // gather, and wherever rows need the uniform mesh's patches, uniform; a mesh given wins, and
+  // a hierarchy's own option given alone asks for the hierarchy.
   auto dir = test::temp_dir();
   const std::string img = (dir / "m.pfm").string(), rep = (dir / "m.json").string(),
                     prt = (dir / "m.prt").string();
@@ -545,6 +546,11 @@ TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
       {"render", "", "uniform"},
       {"render", " --indirect mesh", "uniform"},
       {"render", " --mesh hierarchical", "hierarchical"},
+      // A hierarchy's own option asks for it, unless --mesh says otherwise.
+      {"render", " --link-tolerance 0.1", "hierarchical"},
+      {"render", " --refine-passes 0", "hierarchical"},
+      {"render", " --min-element-size 0.5", "hierarchical"},
+      {"render", " --refine-passes 0 --mesh uniform", "uniform"},
       {"render", " --gather patch", "hierarchical"},
       {"render", " --gather patch --mesh uniform", "uniform"},
       {"render", " --gather patch --specular-on-the-fly", "uniform"},

@@ -72,27 +72,31 @@ void SystemFlags::add(CLI::App& app) {
       app, "--mesh", mesh,
       "Uniform patches linked pair by pair, or element trees on them linked at the level the "
       "light needs (lobes on links between the trees' roots) (default: hierarchical behind the "
-      "patch gather; uniform behind the final gather, where rows need the uniform mesh and where "
-      "no gather reads the solution)");
+      "patch gather, or where a hierarchy's own option is given; uniform behind the final gather, "
+      "where rows need the uniform mesh and where no gather reads the solution)");
   mesh_option->default_str("");
   const std::string tolerances =
       number_text(link_tolerance_for(GatherKind::kFinal)) + " behind the final gather (" +
       number_text(link_tolerance_for(GatherKind::kPatch)) + " with --indirect mesh), " +
       number_text(link_tolerance_for(GatherKind::kPatch)) + " behind the patch gather, " +
       number_text(kDefaultLinkTolerance) + " where no gather reads the solution";
-  app.add_option("--link-tolerance", hierarchy.link_tolerance,
-                 "Hierarchical mesh: the error a link may make, as a fraction of what it carries "
-                 "(default " +
-                     tolerances + ")")
-      ->check(CLI::Range(1e-9, 1e9));
-  app.add_option("--min-element-size", hierarchy.min_element_size,
-                 "Hierarchical mesh: no element is split below this edge (default: an eighth of "
-                 "its root patch)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--refine-passes", hierarchy.passes,
-                 "Hierarchical mesh: refinement passes after the first, each after a solve")
-      ->check(CLI::Range(0, 100))
-      ->capture_default_str();
+  hierarchy_options.push_back(
+      app.add_option(
+             "--link-tolerance", hierarchy.link_tolerance,
+             "Hierarchical mesh: the error a link may make, as a fraction of what it carries "
+             "(default " +
+                 tolerances + ")")
+          ->check(CLI::Range(1e-9, 1e9)));
+  hierarchy_options.push_back(
+      app.add_option("--min-element-size", hierarchy.min_element_size,
+                     "Hierarchical mesh: no element is split below this edge (default: an eighth "
+                     "of its root patch)")
+          ->check(CLI::PositiveNumber));
+  hierarchy_options.push_back(
+      app.add_option("--refine-passes", hierarchy.passes,
+                     "Hierarchical mesh: refinement passes after the first, each after a solve")
+          ->check(CLI::Range(0, 100))
+          ->capture_default_str());
   app.add_flag("--allow-unsafe-albedo", unsafe_albedo,
                "UNSAFE: accept materials whose albedo may exceed 1 (to test divergence detection)");
 }
@@ -111,7 +115,13 @@ SystemOptions SystemFlags::system() const {
   if (centre_point) o.specular.estimator = SpecularEstimator::kCentrePoint;
   o.specular_on_the_fly = on_the_fly;
   o.max_memory_bytes = max_memory_gib * (1ull << 30);
-  if (mesh_option && mesh_option->count() > 0) o.mesh = mesh;
+  // --mesh given wins; a hierarchy's own option without it asks for the hierarchy (rather than
+  // being ignored on a uniform mesh); else the workflow chooses (system_for_gather).
+  const auto given = [](const CLI::Option* option) { return option && option->count() > 0; };
+  if (given(mesh_option))
+    o.mesh = mesh;
+  else if (std::any_of(hierarchy_options.begin(), hierarchy_options.end(), given))
+    o.mesh = MeshKind::kHierarchical;
   o.hierarchy = hierarchy;
   return o;
 }

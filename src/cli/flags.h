@@ -57,6 +57,7 @@ struct SystemFlags {
   MeshKind mesh = MeshKind::kUniform;
   CLI::Option* mesh_option = nullptr;  // unless it was given, the workflow chooses the mesh
   HierarchyOptions hierarchy;          // link_tolerance 0 unless given: the workflow chooses
+  std::vector<CLI::Option*> hierarchy_options;  // any given without --mesh: hierarchical
   void add(CLI::App& app);
   SceneOptions scene() const;
   SceneOverrides overrides() const;
