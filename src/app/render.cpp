@@ -12,6 +12,14 @@ namespace polyrad {
 
 namespace {
 
+// The series a render folds: view rows behind the render's own gather.
+SeriesOptions render_series_options(const RenderOptions& o) {
+  SeriesOptions so = o.series;
+  so.output = SeriesOutput::kView;
+  so.gather = o.gather;
+  return so;
+}
+
 // The camera's share of the memory estimate (transport/memory_estimate.h): the gather, or the
 // view rows and their deferred gather, or the path tracer's image and its error buffers; and
 // the codec of the image a render is for (io/image_codec.h), loaded while all this is held,
@@ -22,10 +30,7 @@ double camera_memory(const RenderOptions& o, const Scene& scene) {
   if (o.method == RenderMethod::kIterative) {
     bytes = gather_memory(o.gather, pixels, o.gather.kind == GatherKind::kFinal);
   } else if (o.method == RenderMethod::kSeries) {
-    SeriesOptions so = o.series;
-    so.output = SeriesOutput::kView;
-    so.gather = o.gather;
-    bytes = rows_memory(so, scene);
+    bytes = rows_memory(render_series_options(o), scene);
   }
   return (o.image_codec ? kImageCodecBytes : 0.0) + bytes;
 }
@@ -83,17 +88,8 @@ void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptio
   rep.solve = std::move(solution);
 }
 
-// The series a render folds: view rows behind the render's own gather.
-SeriesOptions render_series_options(const RenderOptions& o) {
-  SeriesOptions so = o.series;
-  so.output = SeriesOutput::kView;
-  so.gather = o.gather;
-  return so;
-}
-
-void render_series(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
+void render_series(RenderResult& r, const SeriesOptions& so, const SystemOptions& system) {
   auto sys = build_system(r.world, system);
-  const SeriesOptions so = render_series_options(o);
   require_precompute_memory(so, *sys, system.max_memory_bytes);
   const SeriesOperator q = precompute_series(sys->transport, *r.world, so);
   const std::vector<float> e = q.column_emission();
@@ -149,7 +145,7 @@ RenderResult render(const std::string& scene_path, const RenderOptions& o) {
       render_iterative(r, o, system);
       break;
     case RenderMethod::kSeries:
-      render_series(r, o, system);
+      render_series(r, series, system);
       break;
     case RenderMethod::kPathTrace:
       render_pathtrace(r, o);

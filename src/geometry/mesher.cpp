@@ -129,7 +129,7 @@ std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, dou
   return out;
 }
 
-std::vector<FacePatches> face_patches(const Scene& scene) {
+std::vector<FacePatches> face_patches(const Scene& scene, bool authored) {
   // Counted in double: the count of an absurd patch size must not overflow before it is refused.
   auto cells_d = [](double length, double max_edge) {
     return std::max(1.0, std::ceil(length / max_edge - 1e-9));
@@ -137,6 +137,8 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
   std::vector<FacePatches> out;
   for (int object = 0; object < static_cast<int>(scene.objects.size()); ++object) {
     const SceneObject& o = scene.objects[object];
+    const double size =
+        authored && o.authored_patch_size > 0.0 ? o.authored_patch_size : o.patch_size;
     for (const auto& face : merged_faces(o.faces)) {
       FacePatches f;
       f.object = object;
@@ -147,14 +149,13 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
       f.normal = area2.norm() > 0.0 ? Vec3(area2.normalized()) : Vec3::Zero();
       if (face.size() == 4) {
         f.patches =
-            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()),
-                    o.patch_size) *
-            cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), o.patch_size);
+            cells_d(std::max((face[1] - face[0]).norm(), (face[2] - face[3]).norm()), size) *
+            cells_d(std::max((face[3] - face[0]).norm(), (face[2] - face[1]).norm()), size);
       } else {
         for (size_t k = 1; k + 1 < face.size(); ++k) {
           double longest = std::max({(face[k] - face[0]).norm(), (face[k + 1] - face[k]).norm(),
                                      (face[0] - face[k + 1]).norm()});
-          double n = cells_d(longest, o.patch_size);
+          double n = cells_d(longest, size);
           f.patches += n * n;
         }
       }
@@ -164,9 +165,9 @@ std::vector<FacePatches> face_patches(const Scene& scene) {
   return out;
 }
 
-double count_patches(const Scene& scene) {
+double count_patches(const Scene& scene, bool authored) {
   double total = 0.0;
-  for (const FacePatches& f : face_patches(scene)) total += f.patches;
+  for (const FacePatches& f : face_patches(scene, authored)) total += f.patches;
   return total;
 }
 

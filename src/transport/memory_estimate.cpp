@@ -80,11 +80,7 @@ double authored_pairs(const Scene& scene, double pairs) {
     return o.authored_patch_size > 0.0 && o.authored_patch_size != o.patch_size;
   };
   if (std::none_of(scene.objects.begin(), scene.objects.end(), moved)) return pairs;
-  Scene authored;
-  authored.objects = scene.objects;
-  for (SceneObject& o : authored.objects)
-    if (moved(o)) o.patch_size = o.authored_patch_size;
-  const double now = count_patches(scene), then = count_patches(authored);
+  const double now = count_patches(scene), then = count_patches(scene, true);
   return now > 0.0 ? pairs * (then / now) * (then / now) : pairs;
 }
 

@@ -76,8 +76,10 @@ struct PatchSet {
 PatchSet mesh_scene(const Scene& scene);
 
 // How many patches mesh_scene would make, without making them (for memory estimates: a tiny
-// patch_size must be refused before the mesher tries to allocate billions of patches).
-double count_patches(const Scene& scene);
+// patch_size must be refused before the mesher tries to allocate billions of patches). With
+// authored, at each object's patch size as the scene gave it (SceneObject::authored_patch_size,
+// where it has one) rather than as overridden.
+double count_patches(const Scene& scene, bool authored = false);
 // Each face as the mesher will cut it: where it is, which way it faces and how many patches it
 // makes (memory estimates judge which patches could see each other from these).
 struct FacePatches {
@@ -86,7 +88,7 @@ struct FacePatches {
   Vec3 normal = Vec3::Zero();
   double patches = 0.0;
 };
-std::vector<FacePatches> face_patches(const Scene& scene);
+std::vector<FacePatches> face_patches(const Scene& scene, bool authored = false);
 
 // A planar convex polygon cut into sub-polygons no longer than max_edge (exposed for tests).
 std::vector<std::vector<Vec3>> subdivide_face(const std::vector<Vec3>& face, double max_edge);
