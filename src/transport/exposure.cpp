@@ -130,6 +130,10 @@ double PatchExposure::fraction_in_front(const Patch& p, const Vec3& origin, cons
 
 ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster, int points,
                          int refined_points)
+    : ExposureMap(patches, caster, std::vector<int>(patches.size(), points), refined_points) {}
+
+ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster,
+                         const std::vector<int>& points, int refined_points)
     : n_(refined_points) {
   const auto count = static_cast<PatchId>(patches.size());
   area_.resize(count);
@@ -137,7 +141,8 @@ ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster, int p
   std::vector<std::vector<std::uint64_t>> grid(count);
 #pragma omp parallel for schedule(dynamic, 16)
   for (PatchId i = 0; i < count; ++i) {
-    double f = probed_fraction(patches[i], caster, points, nullptr);
+    // The first test (0.5, as for a partly buried patch, where it would be the refined grid).
+    double f = points[i] < n_ ? probed_fraction(patches[i], caster, points[i], nullptr) : 0.5;
     if (f > 0.0 && f < 1.0) {
       grid[i].assign(words(n_), 0);
       f = probed_fraction(patches[i], caster, n_, grid[i].data());

@@ -49,6 +49,7 @@ double non_negative_scale(const Element& r, const Vec2& slope, double mean) {
 using hierarchy_detail::any_corner_in_front;
 using hierarchy_detail::fit_linear;
 using hierarchy_detail::LinearFit;
+using hierarchy_detail::longest_edge;
 using hierarchy_detail::wholly_exposed;
 
 namespace hierarchy_detail {
@@ -203,11 +204,20 @@ PatchExposure HierarchyBuilder::exposure_of(std::int32_t e) const {
   return x;
 }
 
+int HierarchyBuilder::probe_rays(std::int32_t a, std::int32_t b) const {
+  auto parts = [&](std::int32_t e) {
+    const double ratio = longest_edge(el_[e].shape) / (8.0 * min_size_[el_[e].root]);
+    return std::clamp(ratio * ratio, 1.0, double{kMaxProbeParts});
+  };
+  const double scale = std::max(parts(a), parts(b));
+  return std::max(1, static_cast<int>(std::lround(std::max(1, o_.visibility_rays) * scale)));
+}
+
 LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
   // Stratified point pairs keyed by the pair, until both outcomes have been seen.
   const std::int32_t a = l.a, b = l.b;
   const Patch &pa = el_[a].shape, &pb = el_[b].shape;
-  const int m = std::max(1, o_.visibility_rays);
+  const int m = probe_rays(a, b);
   const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(m))));
   Rng rng(o_.seed, pair_key(a, b));
   // On a partly buried element, points inside other geometry are skipped: they see nothing and

@@ -11,11 +11,12 @@
 // around it) meet the back of a surface, i.e. it lies inside a closed object (also one nested in
 // or cutting another) or sandwiched under a one-sided panel; or when every front its probes meet
 // sees a back in turn (a space closed partly by walls and floor). E is measured on 4 x 4 points of
-// the patch's unit square (Patch::sample), refined to 32 x 32 where the buried boundary crosses
-// the patch. For such a partly buried patch the refined grid is kept (one bit a cell, 128 bytes),
-// so that the form factors (and the hierarchy's elements, on grids of their own) read E at their
-// quadrature points, and the exposed part of a region a partner's plane cuts off, from the same
-// grid: probes are cast per pair only for points in the cells beside the buried boundary.
+// the patch's unit square (Patch::sample; more where a caller asks, as the hierarchy does for
+// roots much larger than their smallest elements), refined to 32 x 32 where the buried boundary
+// crosses the patch. For such a partly buried patch the refined grid is kept (one bit a cell, 128
+// bytes), so that the form factors (and the hierarchy's elements, on grids of their own) read E
+// at their quadrature points, and the exposed part of a region a partner's plane cuts off, from
+// the same grid: probes are cast per pair only for points in the cells beside the buried boundary.
 // Deterministic (fixed points and probes).
 //
 //   ExposureMap map(patches, caster, 4, 32);
@@ -58,6 +59,12 @@ struct PatchExposure {
 class ExposureMap {
  public:
   ExposureMap(const PatchSet& patches, const RayCaster& caster, int points, int refined_points);
+  // The first test on points[i] x points[i] points for patch i (at least 1): a buried region
+  // narrower than the points' spacing can fall between them and go unseen, so a large patch
+  // whose buried parts matter down to a small size asks for more (the hierarchy's roots, by
+  // their smallest element). At refined_points or more, the first test is the refined grid.
+  ExposureMap(const PatchSet& patches, const RayCaster& caster, const std::vector<int>& points,
+              int refined_points);
 
   PatchExposure operator[](PatchId i) const;
   double area(PatchId i) const { return area_[i]; }
