@@ -444,12 +444,14 @@ double floor_box_mean(const ElementHierarchy& h, const Field& u, ObjectId object
 
 // Shadows are found between whole roots: over twelve blocks (three places, two widths, two
 // heights), the floor's radiosity in the nearer half of each umbra (where no point of the lamp is
-// seen) is below half of what it is at the same place mirrored through the lamp, in at least ten.
-// The probe between the lamp and the floor's 2 m root decides for every part of the floor: a pair
-// its rays judge wholly visible is linked so, and its parts inherit the verdict. With 16 rays it
-// was so in three of the twelve (the others 0.62 to 1.07 of the mirrored light); with rays for
-// each part eight smallest elements long (256 here), in ten. Rays find a small shadow by chance,
-// and more rays more often: the test counts, rather than trusting one block's luck.
+// seen; for the narrow blocks a strip narrower than a leaf, so the leaves there are part
+// penumbra) is below half of what it is at the same place mirrored through the lamp. The probe
+// between the lamp and the floor's 2 m root decides for every part of the floor: a pair its rays
+// judge wholly visible is linked so, and its parts inherit the verdict. With 16 rays that held
+// for three of the twelve (the others 0.62 to 1.07 of the mirrored light); with 16 for each of
+// the floor's 4 x 4 parts eight smallest elements long, for ten. Rays find a small shadow by
+// chance and more rays more often, so the test counts, with a margin, rather than trusting one
+// block's luck.
 TEST(Hierarchy, ShadowsBetweenWholeRootsAreFound) {
   int found = 0, blocks = 0;
   std::ostringstream ratios;
@@ -471,7 +473,7 @@ TEST(Hierarchy, ShadowsBetweenWholeRootsAreFound) {
         if (umbra < 0.5 * mirrored) ++found;
         ratios << " " << umbra / mirrored;
       }
-  EXPECT_GE(found, 10) << "of " << blocks << "; umbra over mirrored:" << ratios.str();
+  EXPECT_GE(found, 8) << "of " << blocks << "; umbra over mirrored:" << ratios.str();
 }
 
 // Refinement converges: as the tolerance falls, the floor under the block approaches a uniform

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 #include "polyrad/scene/brdf.h"
@@ -135,6 +136,8 @@ ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster, int p
 ExposureMap::ExposureMap(const PatchSet& patches, const RayCaster& caster,
                          const std::vector<int>& points, int refined_points)
     : n_(refined_points) {
+  if (points.size() != patches.size())
+    throw std::invalid_argument("ExposureMap: one count of points per patch");
   const auto count = static_cast<PatchId>(patches.size());
   area_.resize(count);
   fraction_.resize(count);

@@ -255,10 +255,11 @@ void HierarchyBuilder::run() {
 
 // The roots, with the uniform mesh's exposed areas (form_factors.h), and the smallest size
 // their elements may be split to. A root's burial is first tested on points no further apart
-// than two of its smallest elements (exposure_points, 4 x 4, at the default eighth of a root):
-// a child inherits a wholly exposed parent's exposure untested, so a buried region the roots'
-// test missed would stay exposed at every level. (A lamp flush under a whole-ceiling root fell
-// between the 4 x 4 points: its leaves took the light the ring around the lamp was owed.)
+// than two of its smallest elements (4 x 4 at the default eighth of a root), up to the refined
+// grid's 32 x 32: a child inherits a wholly exposed parent's exposure untested, so a buried
+// region the roots' test missed would stay exposed at every level. (A lamp flush under a
+// whole-ceiling root fell between the 4 x 4 points: its leaves took the light the ring around the
+// lamp was owed.)
 void HierarchyBuilder::make_roots() {
   const auto r = static_cast<std::int32_t>(roots_.size());
   HierarchyStats& st = h_.stats_;
@@ -267,7 +268,7 @@ void HierarchyBuilder::make_roots() {
   for (std::int32_t p = 0; p < r; ++p) {
     const double edge = longest_edge(roots_[p]);
     min_size_[p] = o_.min_element_size > 0.0 ? o_.min_element_size : edge / 8.0;
-    const double spaced = std::ceil(edge / (2.0 * min_size_[p]) - 1e-9);
+    const double spaced = edge > 0.0 ? std::ceil(edge / (2.0 * min_size_[p]) - 1e-9) : 0.0;
     const auto refined = static_cast<double>(o_.form_factors.exposure_refined);
     points[p] =
         std::max(o_.form_factors.exposure_points, static_cast<int>(std::min(spaced, refined)));

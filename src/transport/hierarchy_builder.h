@@ -206,10 +206,11 @@ class HierarchyBuilder {
   // visible fractions.
   LinkVisibility probe(ElementLink& l, long long* rays) const;
   // How many: visibility_rays for elements up to eight smallest elements long (a root, at the
-  // default smallest size), and as many again for each such part of a larger one (its longest
-  // edge over eight smallest elements, squared), up to kMaxProbeParts times: 16 rays between
-  // two whole walls saw none of a block's shadow between them, and a wholly visible verdict is
-  // final for the pair (its links keep it, its children inherit it).
+  // default smallest size), and as many again for each part of a larger one, cut into n x n
+  // parts so long (n its longest edge over eight smallest elements, rounded up, at most
+  // kMaxProbeSide): 16 rays between two whole walls saw none of a block's shadow between them,
+  // and a wholly visible verdict is final for the pair (its links keep it, its children inherit
+  // it).
   int probe_rays(std::int32_t a, std::int32_t b) const;
   // The visible fractions that weigh the point values f of end `which` of the pair a, b (0: a's,
   // toward b; 1: b's, toward a), exposure_to the other end's.
@@ -331,8 +332,8 @@ class HierarchyBuilder {
   // Rays from each oracle point of a partly hidden pair to the other element (its visible
   // fraction there).
   static constexpr int kPointRays = 4;
-  // The most parts a probe casts visibility_rays for (probe_rays).
-  static constexpr int kMaxProbeParts = 16;
+  // The most parts a side a probe casts visibility_rays for (probe_rays): 16 times the rays.
+  static constexpr int kMaxProbeSide = 4;
   // The darkest source and receiver, as a share of the mean reflected radiosity B_ref, that the
   // oracle judges by their own radiosity: a leaf's error is bounded by about
   // tau (B_reflected + kDarkest rho B_ref), relative where it is not darker than that.

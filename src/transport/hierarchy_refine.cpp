@@ -205,12 +205,15 @@ PatchExposure HierarchyBuilder::exposure_of(std::int32_t e) const {
 }
 
 int HierarchyBuilder::probe_rays(std::int32_t a, std::int32_t b) const {
-  auto parts = [&](std::int32_t e) {
+  // Whole parts a side, so that the count stays a square (16 n^2, coprime to the shuffle's 5):
+  // the strata tile both elements, each stratum once.
+  auto side = [&](std::int32_t e) {
     const double ratio = longest_edge(el_[e].shape) / (8.0 * min_size_[el_[e].root]);
-    return std::clamp(ratio * ratio, 1.0, double{kMaxProbeParts});
+    if (!(ratio > 1.0)) return 1;
+    return static_cast<int>(std::ceil(std::min(ratio, double{kMaxProbeSide}) - 1e-9));
   };
-  const double scale = std::max(parts(a), parts(b));
-  return std::max(1, static_cast<int>(std::lround(std::max(1, o_.visibility_rays) * scale)));
+  const int n = std::max(side(a), side(b));
+  return std::max(1, o_.visibility_rays) * n * n;
 }
 
 LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {

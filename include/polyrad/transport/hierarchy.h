@@ -75,8 +75,8 @@
 //   LeafPoint p = h.leaf_at(hit.patch, hit.u, hit.v);                   // what a hit reads
 //
 // Cost: the first pass tests every pair of roots (R^2 / 2 facing tests and point form factors);
-// refinement costs ten point form factors and at most visibility_rays rays per candidate (16
-// times that between elements over eight smallest elements long, see visibility_rays), and
+// refinement costs ten point form factors and at most visibility_rays rays per candidate (n^2
+// times that between elements over 8 (n - 1) smallest elements long, n <= 4: visibility_rays), and
 // each link one pair form factor (eq. 4, as the uniform mesh; with open_link_rays shadow rays
 // per point where the oracle saw no shadow below the roots). Memory: about 420 bytes per
 // element (352 its Element, 64 leaf_at's copy) and at most 1 KiB per root (leaf_at's grid), 32
@@ -125,9 +125,9 @@ struct HierarchyOptions {
   // The relative change at which a solve between passes stops (Gauss-Seidel on the hierarchy).
   double pass_tolerance = 1e-3;
   // Rays between the two elements of a pair whose error asks for the visibility test, for
-  // elements up to eight smallest elements long; as many again for each such part of a larger
-  // one, up to 16 times (a wholly visible verdict is kept by the pair's parts: a few rays between
-  // whole walls missed a block's shadow). At the default smallest size, the roots' own count.
+  // elements up to eight smallest elements long; a larger one is cut into n x n parts so long
+  // (n at most 4) and each gets as many (a wholly visible verdict is kept by the pair's parts: a
+  // few rays between whole walls missed a block's shadow). At the default smallest size, this.
   int visibility_rays = 16;
   // Scale the leaves whose column would sum above a_max (see above); off only to compare.
   bool energy_guard = true;
