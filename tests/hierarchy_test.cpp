@@ -367,6 +367,20 @@ TEST(Hierarchy, EveryLeafsColumnIsNonNegativeAtTheBlocksBase) {
   }
 }
 
+// Whether e is a leaf of `object` with some exposed area.
+bool is_exposed_leaf_of(const Element& e, ObjectId object) {
+  return e.is_leaf() && e.shape.object == object && e.exposed > 0.0;
+}
+
+// The area of element e on y = 0, taken as a square about its centroid, within the box
+// [x0, x1] x [z0, z1].
+double square_overlap(const Element& e, double x0, double x1, double z0, double z1) {
+  const double half = 0.5 * std::sqrt(e.shape.area);
+  const Vec3& c = e.shape.centroid;
+  return std::max(0.0, std::min(x1, c.x() + half) - std::max(x0, c.x() - half)) *
+         std::max(0.0, std::min(z1, c.z() + half) - std::max(z0, c.z() - half));
+}
+
 // The radiosity (channel 0) of the exposed leaves of `object`, a square floor in [0, cells *
 // cell]^2 of y = 0 whose roots are squares, averaged over each cell of a grid in x, z, and the
 // area of leaves each cell's average covers.
@@ -377,14 +391,13 @@ GridMeans floor_grid_means(const ElementHierarchy& h, const Field& u, ObjectId o
                            int cells) {
   std::vector<double> sum(cells * cells, 0.0), area(cells * cells, 0.0);
   for (const Element& e : h.elements()) {
-    if (!e.is_leaf() || e.shape.object != object || !(e.exposed > 0.0)) continue;
+    if (!is_exposed_leaf_of(e, object)) continue;
     const double half = 0.5 * std::sqrt(e.shape.area);
     const double x0 = e.shape.centroid.x() - half, x1 = e.shape.centroid.x() + half;
     const double z0 = e.shape.centroid.z() - half, z1 = e.shape.centroid.z() + half;
     for (int i = std::max(0, static_cast<int>(x0 / cell)); i < cells && i * cell < x1; ++i)
       for (int k = std::max(0, static_cast<int>(z0 / cell)); k < cells && k * cell < z1; ++k) {
-        const double w = std::max(0.0, std::min(x1, (i + 1) * cell) - std::max(x0, i * cell)) *
-                         std::max(0.0, std::min(z1, (k + 1) * cell) - std::max(z0, k * cell));
+        const double w = square_overlap(e, i * cell, (i + 1) * cell, k * cell, (k + 1) * cell);
         sum[i * cells + k] += w * u(e.leaf, 0);
         area[i * cells + k] += w;
       }
@@ -431,11 +444,8 @@ double floor_box_mean(const ElementHierarchy& h, const Field& u, ObjectId object
                       double x1, double z0, double z1) {
   double sum = 0.0, area = 0.0;
   for (const Element& e : h.elements()) {
-    if (!e.is_leaf() || e.shape.object != object || !(e.exposed > 0.0)) continue;
-    const double half = 0.5 * std::sqrt(e.shape.area);
-    const Vec3& c = e.shape.centroid;
-    const double w = std::max(0.0, std::min(x1, c.x() + half) - std::max(x0, c.x() - half)) *
-                     std::max(0.0, std::min(z1, c.z() + half) - std::max(z0, c.z() - half));
+    if (!is_exposed_leaf_of(e, object)) continue;
+    const double w = square_overlap(e, x0, x1, z0, z1);
     sum += w * u(e.leaf, 0);
     area += w;
   }
