@@ -128,7 +128,9 @@ TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
   // factors), each uniform with the stored patch gather, a hierarchy of one refinement pass read
   // by the final gather, and the patch gather's own hierarchy on a glossy scene's patches and on
   // roots finer than the scene's (estimated at 1.8 times its peak when it scaled the scene's
-  // links with the root pairs): what the report says was estimated against the process's peak
+  // links with the root pairs), and the final gather's hierarchy on roots four times the scene's
+  // (2.0 when the estimate took no account of their coarser smallest elements): what the report
+  // says was estimated against the process's peak
   // resident set. The first writes an .exr (the codec module loaded beside the system), the
   // others a .pfm (no module, none counted).
   auto dir = test::temp_dir();
@@ -143,6 +145,8 @@ TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
         "render " + test::scene_path("cornell-glossy") + " --gather patch -o " +
             (dir / "x.pfm").string(),
         "render " + test::scene_path("cornell-box") + " --patch-size 35 --gather patch -o " +
+            (dir / "x.pfm").string(),
+        "render " + test::scene_path("cornell-box") + " --mesh hierarchical --patch-size 200 -o " +
             (dir / "x.pfm").string()}) {
     CommandRun r = run(args + " --report " + report);
     ASSERT_EQ(r.code, 0) << args << "\n" << r.err;

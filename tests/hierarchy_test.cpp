@@ -1064,5 +1064,21 @@ TEST(Hierarchy, MemoryEstimateOnOtherRootsAddsOneLinkPerRootPair) {
   EXPECT_EQ(estimate_memory(apply_overrides(in_code, {25.0}), o).system, fine.system);
 }
 
+TEST(Hierarchy, MemoryEstimateOnCoarserSmallestElementsRefinesLess) {
+  // Refinement stops at the smallest element: on roots four times the scene's own, their eighth
+  // is four times the scene's smallest element and the tree makes about 0.43 of the links it
+  // makes down to the scene's (cornell-box); the estimate follows, and with the smallest
+  // element given as the scene's own it is the fit's.
+  Scene scene = load_scene(test::scene_path("cornell-box"));
+  for (SceneObject& obj : scene.objects) obj.patch_size = obj.authored_patch_size = 50.0;
+  const Scene coarse = apply_overrides(scene, {200.0});
+  const MemoryEstimate eighth = estimate_memory(coarse, hierarchical(0.05).system);
+  const MemoryEstimate own = estimate_memory(coarse, hierarchical(0.05, 50.0 / 8.0).system);
+  EXPECT_GT(eighth.system, 0.3 * own.system);
+  EXPECT_LT(eighth.system, 0.5 * own.system);
+  EXPECT_EQ(estimate_memory(scene, hierarchical(0.05, 50.0 / 8.0).system).system,
+            estimate_memory(scene, hierarchical(0.05).system).system);
+}
+
 }  // namespace
 }  // namespace polyrad

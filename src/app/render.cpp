@@ -32,7 +32,9 @@ double camera_memory(const RenderOptions& o, const Scene& scene) {
   } else if (o.method == RenderMethod::kSeries) {
     bytes = rows_memory(render_series_options(o), scene);
   }
-  return (o.image_codec ? kImageCodecBytes : 0.0) + bytes;
+  const double codec =
+      o.image_codec ? kImageCodecBytes + kImageCodecPixelBytes * static_cast<double>(pixels) : 0.0;
+  return codec + bytes;
 }
 
 // The scene, timed as "load", and the world built from it (its mesh and ray caster times). The

@@ -16,7 +16,9 @@ namespace polyrad {
 
 namespace {
 
-constexpr double kBaseBytes = 20.0 * (1 << 20);
+// The process before any scene: a 16 x 16 render of cornell-box on five patches peaked at 14.0
+// MiB (2026-12-06).
+constexpr double kBaseBytes = 15.0 * (1 << 20);
 constexpr double kPatchBytes = 350.0;
 constexpr double kPairBytes = 48.0;
 constexpr double kEntryBytes = 50.0;
@@ -58,6 +60,13 @@ constexpr double kMinRefinementGrowth = 0.2;
 // third adds < 1 %. 0.8 is where the fit over all the rows put the second, and it keeps the
 // room's one-pass renders (1.10, 1.14) off the low end. The floor applies after this share.
 constexpr double kPassShare[] = {0.4, 0.8, 1.0};
+// Refinement stops at the smallest element: with it coarser than the scene's own (an eighth of
+// its authored patch), the links where the light varies are cut short. Cornell-box at tau 0.05,
+// links against those with the scene's own smallest element: 0.83, 0.43 and 0.10 with it 2, 4
+// and 12 times as large (roots 100, 200 and 600, each at an eighth); the share below,
+// min(1, (2 / r)^1.33), gives 1, 0.40 and 0.09.
+constexpr double kFreeCoarsening = 2.0;
+constexpr double kCoarseningExponent = 1.33;
 constexpr int kPairSamples = 4096;
 
 bool facing(const Vec3& ca, const Vec3& na, const Vec3& cb, const Vec3& nb) {
@@ -84,9 +93,28 @@ double authored_pairs(const Scene& scene, double pairs) {
   return now > 0.0 ? pairs * (then / now) * (then / now) : pairs;
 }
 
+// The share of the fit's refined links the hierarchy can make with its smallest element
+// (kFreeCoarsening, above): per face, weighed by its patches on the scene's own sizes. A face
+// of n such patches is taken as sqrt(n) of them long: a root is never longer than its face.
+double finest_share(const Scene& scene, const HierarchyOptions& o) {
+  double weight = 0.0, share = 0.0;
+  for (const FacePatches& f : face_patches(scene, true)) {
+    const SceneObject& obj = scene.objects[f.object];
+    const double own = obj.authored_patch_size > 0.0 ? obj.authored_patch_size : obj.patch_size;
+    const double root = std::min(obj.patch_size, own * std::sqrt(f.patches));
+    const double smallest = o.min_element_size > 0.0 ? o.min_element_size : root / 8.0;
+    if (!(own > 0.0) || !(smallest > 0.0)) continue;
+    const double r = smallest / (own / 8.0);
+    share += f.patches * std::min(1.0, std::pow(kFreeCoarsening / r, kCoarseningExponent));
+    weight += f.patches;
+  }
+  return weight > 0.0 ? share / weight : 1.0;
+}
+
 // The system's bytes from the counts: `pairs` visible root pairs, `authored` those on the
-// scene's own patches (the hierarchy's fit, above).
-double system_bytes(double pairs, double authored, double reflector_pairs_targets,
+// scene's own patches (the hierarchy's fit, above), `finest` the share of its refined links the
+// smallest element allows (finest_share).
+double system_bytes(double pairs, double authored, double finest, double reflector_pairs_targets,
                     const SystemOptions& o) {
   if (o.mesh == MeshKind::kHierarchical) {
     // The links, and with lobes the transfer on the roots (the uniform mesh's, eq. H3).
@@ -101,9 +129,11 @@ double system_bytes(double pairs, double authored, double reflector_pairs_target
     const double growth =
         std::clamp(coarse * fine * passes, kMinRefinementGrowth, kMaxRefinementGrowth);
     // Each root pair beyond (or short of) the scene's own adds (or takes away) one root link,
-    // never more than a pair of the fit costs at this tolerance.
+    // never more than a pair of the fit costs at this tolerance; a coarser smallest element
+    // refines less (finest), but every root pair keeps its link.
     const double root_link = std::min(kRootLinkBytes, kRootPairBytes * growth);
-    return authored * kRootPairBytes * growth + (pairs - authored) * root_link + transfer;
+    const double links = authored * kRootPairBytes * growth + (pairs - authored) * root_link;
+    return std::max(finest * links, pairs * root_link) + transfer;
   }
   return pairs * kPairBytes + reflector_pairs_targets * kEntryBytes;
 }
@@ -123,10 +153,10 @@ MemoryEstimate with_parts(MemoryEstimate m, const Scene& scene,
     entries += patches * partners * targets_per_pair(*mat, options.specular.samples, partners);
   m.base = kBaseBytes;
   m.world = m.patches * kPatchBytes;
-  const double authored = options.mesh == MeshKind::kHierarchical
-                              ? authored_pairs(scene, m.visible_pairs)
-                              : m.visible_pairs;
-  m.system = system_bytes(m.visible_pairs, authored, entries, options);
+  const bool tree = options.mesh == MeshKind::kHierarchical;
+  const double authored = tree ? authored_pairs(scene, m.visible_pairs) : m.visible_pairs;
+  const double finest = tree ? finest_share(scene, options.hierarchy) : 1.0;
+  m.system = system_bytes(m.visible_pairs, authored, finest, entries, options);
   m.camera = options.camera_bytes;
   return m;
 }

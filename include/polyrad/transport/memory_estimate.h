@@ -3,7 +3,7 @@
 // not. The figures per part are calibrated against the peaks measured on the Cornell scenes
 // (README, "Memory"); the estimate stays within a factor 1.5 of them.
 //
-//   base     the process: libraries, Embree's device, the scene                   20 MiB
+//   base     the process: libraries, Embree's device, the scene                   15 MiB
 //   world    the patches and their ray caster                       350 bytes a patch
 //   system   the form factors and T's diffuse rows                48 bytes a visible pair
 //            the specular transfer and T's link rows            50 bytes a transfer entry
@@ -15,12 +15,15 @@
 //            to 0.02 and then by (0.02 / tau)^1.5, by 0.4 with no pass after the first and 0.8
 //            with one, and the product kept within 0.2 and 64 times, for the root pairs of the
 //            scene's own patch sizes; each root pair beyond (or short of) those adds (or takes
-//            away) one root link, 90 bytes or that product's 260 if less; with lobes the
-//            transfer on its roots and the root links' rows 35 bytes an entry
+//            away) one root link, 90 bytes or that product's 260 if less; all of it times
+//            min(1, (2 / r)^1.33) for a smallest element r times the scene's own (refinement
+//            stops there), but never under a root link a root pair; with lobes the transfer
+//            on its roots and the root links' rows 35 bytes an entry
 //   camera   set by each workflow: the gather (render/camera_gather.h, gather_memory), the
 //            precompute's view rows (solve/series_precompute.h, rows_memory), images and,
 //            where the workflow writes .exr or .png, the codec module (io/image_codec.h,
-//            110 MiB, counted in full: the system is still held when the image is written)
+//            110 MiB and 12 bytes a pixel, counted in full: the system is still held when the
+//            image is written)
 // Visible pairs: before meshing, the pairs of faces that face each other, weighted by their
 // patch counts, times 0.75 (the share of facing pairs the Cornell box sees unblocked; the check
 // before meshing refuses only past a tenth); from a built world, 4096 random patch pairs tested
