@@ -41,8 +41,8 @@ DemoResult demo(const DemoOptions& f) {
   SystemOptions system;
   const auto pixels = static_cast<std::int64_t>(camera.width) * camera.height;
   system.camera_bytes = gather_memory(GatherOptions::final_gather(), pixels, false) +
-                        rows_memory(SeriesOptions{}, loaded->scene()) + kImageCodecBytes +
-                        kImageCodecPixelBytes * static_cast<double>(pixels);
+                        rows_memory(SeriesOptions{}, loaded->scene()) +
+                        image_codec_memory(static_cast<double>(pixels));
   auto sys = build_system(std::move(loaded), system);
   const World& world = *sys->world;
   const auto& t = sys->transport;

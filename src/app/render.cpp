@@ -32,9 +32,7 @@ double camera_memory(const RenderOptions& o, const Scene& scene) {
   } else if (o.method == RenderMethod::kSeries) {
     bytes = rows_memory(render_series_options(o), scene);
   }
-  const double codec =
-      o.image_codec ? kImageCodecBytes + kImageCodecPixelBytes * static_cast<double>(pixels) : 0.0;
-  return codec + bytes;
+  return (o.image_codec ? image_codec_memory(static_cast<double>(pixels)) : 0.0) + bytes;
 }
 
 // The scene, timed as "load", and the world built from it (its mesh and ray caster times). The

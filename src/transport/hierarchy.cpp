@@ -267,7 +267,7 @@ void HierarchyBuilder::make_roots() {
   std::vector<int> points(r);
   for (std::int32_t p = 0; p < r; ++p) {
     const double edge = longest_edge(roots_[p]);
-    min_size_[p] = o_.min_element_size > 0.0 ? o_.min_element_size : edge / 8.0;
+    min_size_[p] = o_.smallest_element(edge);
     const double spaced = edge > 0.0 ? std::ceil(edge / (2.0 * min_size_[p]) - 1e-9) : 0.0;
     const auto refined = static_cast<double>(o_.form_factors.exposure_refined);
     points[p] =

@@ -102,9 +102,9 @@ double finest_share(const Scene& scene, const HierarchyOptions& o) {
     const SceneObject& obj = scene.objects[f.object];
     const double own = obj.authored_patch_size > 0.0 ? obj.authored_patch_size : obj.patch_size;
     const double root = std::min(obj.patch_size, own * std::sqrt(f.patches));
-    const double smallest = o.min_element_size > 0.0 ? o.min_element_size : root / 8.0;
+    const double smallest = o.smallest_element(root);
     if (!(own > 0.0) || !(smallest > 0.0)) continue;
-    const double r = smallest / (own / 8.0);
+    const double r = smallest / HierarchyOptions{}.smallest_element(own);
     share += f.patches * std::min(1.0, std::pow(kFreeCoarsening / r, kCoarseningExponent));
     weight += f.patches;
   }

@@ -48,6 +48,10 @@ inline constexpr double kImageCodecBytes = 110.0 * (1 << 20);
 // (cornell-box at 2048 x 2048 to .exr peaked 149 MiB above .pfm: the module and 9.7 bytes a
 // pixel).
 inline constexpr double kImageCodecPixelBytes = 12.0;
+// Both, for an image of `pixels` pixels.
+inline double image_codec_memory(double pixels) {
+  return kImageCodecBytes + kImageCodecPixelBytes * pixels;
+}
 
 // The module's one exported symbol, extern "C" so that dlsym finds it by this name.
 inline constexpr const char* kImageCodecEntry = "polyrad_image_codec";

@@ -150,6 +150,11 @@ struct HierarchyOptions {
   bool specular_links = true;
   SpecularOptions specular;
   double tolerance() const { return link_tolerance > 0.0 ? link_tolerance : kDefaultLinkTolerance; }
+  // The smallest element under a root whose longest edge is `root_edge` (min_element_size's
+  // rule, above).
+  double smallest_element(double root_edge) const {
+    return min_element_size > 0.0 ? min_element_size : root_edge / 8.0;
+  }
 };
 
 // One node of an element tree.
