@@ -710,6 +710,56 @@ TEST(Hierarchy, SameOperatorOnOneOrTwoThreads) {
   EXPECT_TRUE((one.array() == two.array()).all());
 }
 
+// A sweep runs its waves of trees, then of reflectors, on both threads; the waves are cut by
+// the operator alone: the same sweep on 1 and 2 threads, to the bit. Roots of 50, so that
+// waves hold several trees (on roots of 100 most hold one).
+TEST(Hierarchy, SameGaussSeidelSweepOnOneOrTwoThreads) {
+  Options o = hierarchical(0.2);
+  o.overrides.patch_size = 50;
+  auto sys = build(load_scene(test::scene_path("cornell-mirror-cube")), o);
+  const TransportOperator& t = sys->transport;
+  ASSERT_GT(sys->hierarchy->num_roots(), 2 * 128);
+  ASSERT_GT(t.num_links(), 1000);
+  auto sweep_on = [&](int threads) {
+    omp_set_num_threads(threads);
+    Field u = t.emission();
+    for (int k = 0; k < 3; ++k) t.gauss_seidel_sweep(t.emission(), u);
+    omp_set_num_threads(omp_get_num_procs());
+    return u;
+  };
+  const Field one = sweep_on(1), two = sweep_on(2);
+  EXPECT_GT(one.bottomRows(t.num_links()).maxCoeff(), 0.0);  // the links were swept too
+  EXPECT_TRUE((one.array() == two.array()).all());
+}
+
+// The build keeps its last solve between passes on the final leaves and links; Gauss-Seidel
+// from there reaches the solution from the emission, within the tolerance, in fewer sweeps.
+TEST(Hierarchy, SolveFromTheLastPassReachesTheSameSolutionSooner) {
+  auto sys = coarse_hierarchy("cornell-mirror-cube");
+  const TransportOperator& t = sys->transport;
+  ASSERT_GE(sys->hierarchy->stats().passes.size(), 2u);
+  ASSERT_NE(t.solution_guess(), nullptr);
+  ASSERT_EQ(t.solution_guess()->rows(), t.size());
+  SolveOptions cold, warm;
+  cold.tolerance = warm.tolerance = 1e-6;
+  warm.start = t.solution_guess();
+  const SolveResult a = solve(t, t.emission(), cold), b = solve(t, t.emission(), warm);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE(b.ok());
+  EXPECT_LT(b.iterations, a.iterations);
+  EXPECT_EQ(solve_emission(t, cold).iterations, b.iterations);  // what render and demo call
+  EXPECT_LT(t.flux_norm(a.u - b.u) / t.flux_norm(a.u), 1e-5);
+  // The guess is not the answer: a first sweep from it still moves it.
+  EXPECT_GT(t.flux_norm(*t.solution_guess() - a.u) / t.flux_norm(a.u), 1e-5);
+  // A uniform system has no guess.
+  Options u;
+  u.overrides.patch_size = 100;
+  u.system.mesh = MeshKind::kUniform;
+  EXPECT_EQ(
+      build(load_scene(test::scene_path("cornell-mirror-cube")), u)->transport.solution_guess(),
+      nullptr);
+}
+
 // Lobes are carried by root links (eq. H3): the mirror cube's faces get links to the roots they
 // send light to, after the leaves; --classic drops them.
 TEST(Hierarchy, LobesAreCarriedByRootLinks) {

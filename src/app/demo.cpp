@@ -51,7 +51,7 @@ DemoResult demo(const DemoOptions& f) {
                                      mesh_direct_for(gather_options, t, world).get());
 
   say("solving iteratively (Gauss-Seidel to a relative residual of 1e-4)");
-  SolveResult solution = solve(t, t.emission(), SolveOptions{});
+  SolveResult solution = solve_emission(t);
   if (!solution.ok()) throw NumericalError(solution.message);
   Stopwatch gather_watch;
   const Image radiosity = gather_image(gather, solution.u, world);

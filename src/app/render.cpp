@@ -57,7 +57,7 @@ std::shared_ptr<const World> load_world(const std::string& path, const RenderOpt
 void render_iterative(RenderResult& r, const RenderOptions& o, const SystemOptions& system) {
   r.system = build_system(r.world, system);
   const TransportOperator& t = r.system->transport;
-  SolveResult solution = solve(t, t.emission(), o.solve);
+  SolveResult solution = solve_emission(t, o.solve);
   if (solution.status == SolveStatus::kDiverged || !solution.u.allFinite())
     throw NumericalError(solution.message.empty() ? "the solution is not finite"
                                                   : solution.message);

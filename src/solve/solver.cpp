@@ -182,13 +182,20 @@ double estimate_spectral_radius(const TransportOperator& t, const Field& e, int 
   return t.max_albedo() > 0.0 ? std::min(rho, t.max_albedo()) : rho;
 }
 
+SolveResult solve_emission(const TransportOperator& t, SolveOptions options) {
+  options.start = t.solution_guess();
+  return solve(t, t.emission(), options);
+}
+
 SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions& options) {
   const Stopwatch watch;
   if (options.method == SolveMethod::kGmres) return solve_gmres(t, e, options, watch);
   if (options.method == SolveMethod::kChebyshev) return solve_chebyshev(t, e, options, watch);
   SolveResult r;
   r.method = options.method;
-  r.u = e;
+  const bool warm = options.method == SolveMethod::kGaussSeidel && options.start &&
+                    options.start->rows() == e.rows();
+  r.u = warm ? *options.start : e;
   const double norm_e = t.flux_norm(e);
   const int max_sweeps = options.fixed_sweeps >= 0 ? options.fixed_sweeps : options.max_iterations;
   if (norm_e == 0.0) {

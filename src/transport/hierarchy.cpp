@@ -163,7 +163,8 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
     return s;
   };
   const double norm_e = norm(e);
-  Field u = e, previous;
+  // From the last solve: the same fixed point in fewer sweeps.
+  Field u = last_solution(), previous;
   int sweeps = 0;
   for (; sweeps < 200 && norm_e > 0.0; ++sweeps) {
     previous = u;
@@ -180,6 +181,21 @@ int HierarchyBuilder::solve(HierarchyPass& pass) {
   pass.sweeps = sweeps;
   pass.solve_seconds += t0.seconds();
   return sweeps;
+}
+
+// Each leaf as its element was, a new one as its parent (split copies b_), each link as the
+// same pair of roots carried.
+Field HierarchyBuilder::last_solution() const {
+  const auto leaves = static_cast<Eigen::Index>(h_.num_leaves());
+  const RootSpecular* sp = h_.op_->specular();
+  const Eigen::Index size = h_.op_->size();
+  Field u(size, 3);
+  for (Eigen::Index l = 0; l < leaves; ++l) u.row(l) = b_[h_.leaf_element_[l]].matrix().transpose();
+  for (Eigen::Index l = leaves; l < size; ++l) {
+    const Link& link = sp->links[l - leaves];
+    u.row(l) = specular_toward(link.from, link.to).matrix().transpose();
+  }
+  return u;
 }
 
 // The specular links' values, for the oracle's sources in reflectors' trees.
@@ -245,6 +261,9 @@ void HierarchyBuilder::run() {
   for (int p = 1; p <= o_.passes; ++p)
     if (!later_pass(p)) break;
   if (!links_.empty()) publish_links();  // the passes ended early
+  const bool solved = std::any_of(h_.stats_.passes.begin(), h_.stats_.passes.end(),
+                                  [](const HierarchyPass& p) { return p.sweeps > 0; });
+  if (solved) h_.guess_ = last_solution();
   el_.shrink_to_fit();  // the last growth's slack (split grows the arrays by a quarter)
   const Stopwatch t_lookup;
   h_.build_corner_averages(roots_);

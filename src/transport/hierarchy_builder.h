@@ -281,6 +281,8 @@ class HierarchyBuilder {
   void close_pass(HierarchyPass& pass, int p);
   // The solve between passes (Gauss-Seidel on the hierarchy), and what the oracle reads of it.
   int solve(HierarchyPass& pass);
+  // The last solve's values on the current unknowns (the emission before the first solve).
+  Field last_solution() const;
   void remember_specular(const Field& u);
   void pull_radiosity(const Field& u);
   void measure_b_ref(const Field& u, const Field& e, const std::vector<double>& w);

@@ -4,6 +4,7 @@
 // the links one sparse product.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "polyrad/transport/hierarchy.h"
 
@@ -254,50 +255,116 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
   }
 }
 
+namespace {
+
+// Consecutive runs of [0, count) whose weights sum to about total / kSweepWaves (a run holds at
+// least one item): the waves of a sweep. They depend on the operator alone, not on the threads,
+// so a solve gives the same numbers on any thread count.
+constexpr std::int64_t kSweepWaves = 16;
+std::vector<std::int32_t> waves(std::int32_t count,
+                                const std::function<std::int64_t(std::int32_t)>& weight) {
+  std::int64_t total = 0;
+  for (std::int32_t k = 0; k < count; ++k) total += weight(k);
+  const std::int64_t target = std::max<std::int64_t>(1, total / kSweepWaves);
+  std::vector<std::int32_t> start{0};
+  std::int64_t sum = 0;
+  for (std::int32_t k = 0; k < count; ++k) {
+    sum += weight(k);
+    if (sum >= target && k + 1 < count) {
+      start.push_back(k + 1);
+      sum = 0;
+    }
+  }
+  start.push_back(count);
+  return start;
+}
+
+}  // namespace
+
 void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
-  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
   const Eigen::Index width = 3;
   BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(nodes()) * width);
-  std::vector<double>& b = buffers.b();
-  std::vector<double>& h = buffers.h();
-  const Eigen::Index leaves_count = leaves();
-  double* s = u.data() + width * leaves_count;  // the specular links, after the leaves
-  for (std::int32_t k = 0; k < trees; ++k)
-    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, tree_start_[k],
-              tree_start_[k + 1], b.data());
-  for (std::int32_t k = 0; k < trees; ++k) {
-    const std::int32_t first = tree_start_[k], last = tree_start_[k + 1];
-    // This tree gathers from every other tree's current values; no link joins a tree to
-    // itself, so its own old values are not read and the order inside the tree is free.
-    gather_rows(links_, b.data(), width, first, last, h.data());
-    if (specular_) receive_specular(s, width, k, k + 1, h.data());
-    push_tree(parent_, centroid_, width, first, last, h.data());
-    for (std::int32_t m = first; m < last; ++m) {
+  double* b = buffers.b().data();
+  double* h = buffers.h().data();
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  const std::vector<std::int32_t> wave = waves(trees, [&](std::int32_t k) {
+    return links_.start[tree_start_[k + 1]] - links_.start[tree_start_[k]] + 1;
+  });
+#pragma omp parallel
+  {
+#pragma omp for schedule(dynamic, 16)
+    for (std::int32_t k = 0; k < trees; ++k)
+      pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, tree_start_[k],
+                tree_start_[k + 1], b);
+    for (std::size_t w = 0; w + 1 < wave.size(); ++w) sweep_wave(wave[w], wave[w + 1], e, u, b, h);
+  }
+  if (specular_) sweep_reflectors(e, u, b);
+}
+
+// Trees [first, last) of a sweep, inside its parallel region: each gathers from the values
+// every tree had when the wave began (no link joins a tree to itself, so a tree never reads its
+// own), pushes and reflects; only then do they pull their new values.
+void HierarchicalOperator::sweep_wave(std::int32_t first, std::int32_t last, const Field& e,
+                                      Field& u, double* b, double* h) const {
+  const Eigen::Index width = 3;
+  const double* s = u.data() + width * leaves();  // the specular links, after the leaves
+#pragma omp for schedule(dynamic, 1)
+  for (std::int32_t k = first; k < last; ++k) {
+    const std::int32_t n0 = tree_start_[k], n1 = tree_start_[k + 1];
+    gather_rows(links_, b, width, n0, n1, h);
+    if (specular_) receive_specular(s, width, k, k + 1, h);
+    push_tree(parent_, centroid_, width, n0, n1, h);
+    for (std::int32_t m = n0; m < n1; ++m) {
       const std::int32_t l = node_leaf_[m];
       if (l < 0) continue;
       for (int c = 0; c < 3; ++c) u(l, c) = e(l, c) + rho_[l][c] * h[3 * width * m + c];
     }
-    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, first, last,
-              b.data());
   }
-  if (!specular_) return;
-  // The reflectors in order, each reading the links already updated in this sweep (a row of
-  // reflector i never reads i's own links: S_{j->i} has j != i).
+#pragma omp for schedule(dynamic, 1)
+  for (std::int32_t k = first; k < last; ++k)
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, u.data(), width, tree_start_[k],
+              tree_start_[k + 1], b);
+}
+
+// The reflectors' link rows, wave by wave like the trees: a wave's rows read the links as the
+// wave found them (a row of reflector i never reads i's own links: S_{j->i} has j != i), into
+// `row`, and are written after.
+void HierarchicalOperator::sweep_reflectors(const Field& e, Field& u, const double* b) const {
+  const Eigen::Index width = 3;
+  const Eigen::Index leaves_count = leaves();
+  double* s = u.data() + width * leaves_count;
   const RootSpecular& sp = *specular_;
+  const auto reflectors = static_cast<std::int32_t>(sp.reflector.size());
+  auto first_link = [&](std::int32_t x) { return sp.link_start[sp.reflector[x]]; };
+  auto end_link = [&](std::int32_t x) { return sp.link_start[sp.reflector[x] + 1]; };
+  const std::vector<std::int32_t> wave = waves(reflectors, [&](std::int32_t x) {
+    return sp.rows.start[end_link(x)] - sp.rows.start[first_link(x)] + 1;
+  });
+  std::vector<std::int64_t> row_at(reflectors, 0);  // each reflector's first link in `row`
   std::int64_t most = 0;
-  for (const std::int32_t i : sp.reflector)
-    most = std::max(most, sp.link_start[i + 1] - sp.link_start[i]);
-  std::vector<double> lin(static_cast<std::size_t>(sp.max_pairs * width)),
-      row(static_cast<std::size_t>(most * width));
-  for (std::int64_t x = 0; x < static_cast<std::int64_t>(sp.reflector.size()); ++x) {
-    const std::int32_t i = sp.reflector[x];
-    const auto first = sp.link_start[i], count = sp.link_start[i + 1] - first;
-    // Into a buffer first, then in place: a reflector's rows never read its own links, but the
-    // buffer keeps that argument local.
-    specular_rows(x, b.data(), s, width, -1, lin.data(), row.data());
-    for (std::int64_t l = 0; l < count; ++l)
-      for (Eigen::Index c = 0; c < width; ++c)
-        s[width * (first + l) + c] = e(leaves_count + first + l, c) + row[width * l + c];
+  for (std::size_t w = 0; w + 1 < wave.size(); ++w) {
+    std::int64_t at = 0;
+    for (std::int32_t x = wave[w]; x < wave[w + 1]; ++x) {
+      row_at[x] = at;
+      at += end_link(x) - first_link(x);
+    }
+    most = std::max(most, at);
+  }
+  std::vector<double> row(static_cast<std::size_t>(most * width));
+#pragma omp parallel
+  {
+    std::vector<double> lin(static_cast<std::size_t>(sp.max_pairs * width));
+    for (std::size_t w = 0; w + 1 < wave.size(); ++w) {
+#pragma omp for schedule(dynamic, 1)
+      for (std::int32_t x = wave[w]; x < wave[w + 1]; ++x)
+        specular_rows(x, b, s, width, -1, lin.data(), row.data() + width * row_at[x]);
+#pragma omp for schedule(dynamic, 1)
+      for (std::int32_t x = wave[w]; x < wave[w + 1]; ++x)
+        for (std::int64_t l = first_link(x); l < end_link(x); ++l)
+          for (Eigen::Index c = 0; c < width; ++c)
+            s[width * l + c] =
+                e(leaves_count + l, c) + row[width * (row_at[x] + l - first_link(x)) + c];
+    }
   }
 }
 

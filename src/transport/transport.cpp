@@ -279,6 +279,11 @@ std::string TransportOperator::divergence_hint() const {
 
 Field TransportOperator::emission() const { return emission(patch_emission_); }
 
+const Field* TransportOperator::solution_guess() const {
+  const ElementHierarchy* h = layout_.hierarchy.get();
+  return h && h->solution_guess().rows() == size() ? &h->solution_guess() : nullptr;
+}
+
 Field TransportOperator::emission(const std::vector<Rgb>& patch_emission) const {
   Field e = Field::Zero(size(), 3);
   for (int i = 0; i < layout_.num_patches; ++i) e.row(i) = patch_emission[i].matrix().transpose();

@@ -295,7 +295,11 @@ class HierarchicalOperator {
   void apply(const double* in, double* out, Eigen::Index width, int channel = -1) const;
   // One Gauss-Seidel sweep, root tree by root tree: each tree gathers from the current values
   // of every other (its own links never reach itself) and the current specular links, then
-  // pushes, reflects and pulls again; then the reflectors' link rows in order.
+  // pushes, reflects and pulls again; then the reflectors' link rows in order. The trees go in
+  // 16 waves of about equal link entries, the reflectors likewise: a wave's members run on every
+  // thread and read the values as the wave found them (Jacobi inside a wave), so the sweep is
+  // the same on any thread count. On the room, the first pass's solve takes 9 sweeps (8 one
+  // tree at a time) of 0.07 s instead of 0.08 (2 threads).
   void gauss_seidel_sweep(const Field& e, Field& u) const;
   // Flux-form column sums of T per leaf, the largest channel's (with reflectance = false, the
   // form factors' alone), with or without the guard. A reflector's receivers count
@@ -317,6 +321,10 @@ class HierarchicalOperator {
   // (a) of eq. H3 into the gathered functions h of the root nodes of trees [first, last).
   void receive_specular(const double* s, Eigen::Index width, std::int32_t first_tree,
                         std::int32_t last_tree, double* h) const;
+  // A sweep's wave of trees [first, last) (inside its parallel region), and its reflectors.
+  void sweep_wave(std::int32_t first, std::int32_t last, const Field& e, Field& u, double* b,
+                  double* h) const;
+  void sweep_reflectors(const Field& e, Field& u, const double* b) const;
   // (b) of eq. H3 for reflector x: its link rows from the pulled values b and the links s,
   // written to out (colour, or one channel's); lin holds max_pairs x width doubles.
   void specular_rows(std::int64_t x, const double* b, const double* s, Eigen::Index width,
@@ -372,6 +380,11 @@ class ElementHierarchy {
   // With lobes (eq. H3): the root form factors of the last pass and the transfer computed after
   // the first, for the lobe check and the report (release_transfer frees their entries).
   const FormFactors& root_form_factors() const { return root_ff_; }
+  // The last solve between passes on the final unknowns (each leaf as its element, or the
+  // element it was split from, had it; each specular link as the same pair of roots carried
+  // it): a Gauss-Seidel solve of the emission starts here (SolveOptions::start). Empty when no
+  // pass solved. 24 bytes an unknown.
+  const Field& solution_guess() const { return guess_; }
   const SpecularTransfer& root_transfer() const { return transfer_; }
   void release_transfer();
 
@@ -413,6 +426,7 @@ class ElementHierarchy {
   HierarchyStats stats_;
   FormFactors root_ff_;
   SpecularTransfer transfer_;
+  Field guess_;
   // Smooth shading: entries of leaf corner 4 l + c are [corner_start_[4l+c],
   // corner_start_[4l+c+1]).
   std::vector<std::int64_t> corner_start_;

@@ -129,6 +129,9 @@ class TransportOperator {
   // in weights().
   bool hierarchical() const { return hierarchy_ != nullptr; }
   const HierarchicalOperator* hierarchy() const { return hierarchy_.get(); }
+  // A guess of the solution for the emission, where the build has one (a hierarchy's last
+  // solve between passes); nullptr otherwise. For SolveOptions::start.
+  const Field* solution_guess() const;
 
  private:
   friend TransportOperator build_transport(const PatchSet&, const std::vector<Material>&,
