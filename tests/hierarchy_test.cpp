@@ -749,6 +749,16 @@ TEST(Hierarchy, SolveFromTheLastPassReachesTheSameSolutionSooner) {
   EXPECT_LT(b.iterations, a.iterations);
   EXPECT_EQ(solve_emission(t, cold).iterations, b.iterations);  // what render and demo call
   EXPECT_LT(t.flux_norm(a.u - b.u) / t.flux_norm(a.u), 1e-5);
+  // A fixed number of sweeps, and a zero emission, start from e as before.
+  SolveOptions fixed = warm;
+  fixed.fixed_sweeps = 3;
+  SolveOptions fixed_cold = fixed;
+  fixed_cold.start = nullptr;
+  EXPECT_TRUE(
+      (solve(t, t.emission(), fixed).u.array() == solve(t, t.emission(), fixed_cold).u.array())
+          .all());
+  const Field zero = Field::Zero(t.size(), 3);
+  EXPECT_EQ(solve(t, zero, warm).u.cwiseAbs().maxCoeff(), 0.0);
   // The guess is not the answer: a first sweep from it still moves it.
   EXPECT_GT(t.flux_norm(*t.solution_guess() - a.u) / t.flux_norm(a.u), 1e-5);
   // A uniform system has no guess.

@@ -193,9 +193,7 @@ SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions
   if (options.method == SolveMethod::kChebyshev) return solve_chebyshev(t, e, options, watch);
   SolveResult r;
   r.method = options.method;
-  const bool warm = options.method == SolveMethod::kGaussSeidel && options.start &&
-                    options.start->rows() == e.rows();
-  r.u = warm ? *options.start : e;
+  r.u = e;
   const double norm_e = t.flux_norm(e);
   const int max_sweeps = options.fixed_sweeps >= 0 ? options.fixed_sweeps : options.max_iterations;
   if (norm_e == 0.0) {
@@ -203,6 +201,9 @@ SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions
     r.message = "no emission: the solution is zero";
     return r;
   }
+  if (options.method == SolveMethod::kGaussSeidel && options.fixed_sweeps < 0 && options.start &&
+      options.start->rows() == e.rows())
+    r.u = *options.start;
   Field next(e.rows(), 3);
   bool done = options.fixed_sweeps == 0;
   while (!done && r.iterations < max_sweeps) {

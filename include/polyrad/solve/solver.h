@@ -53,9 +53,9 @@ struct SolveOptions {
   int fixed_sweeps = -1;
   // Chebyshev: the spectral radius bound rho; 0 estimates it (estimate_spectral_radius).
   double chebyshev_radius = 0.0;
-  // Gauss-Seidel's first iterate instead of e, when it has e's rows: the same fixed point, in
-  // fewer sweeps from a good guess (TransportOperator::solution_guess). The other methods start
-  // from e: their sweeps are the power series of e.
+  // Gauss-Seidel's first iterate instead of e, when it has e's rows and e is not zero: the same
+  // fixed point, in fewer sweeps from a good guess (TransportOperator::solution_guess). Fixed
+  // sweeps and the other methods start from e (Jacobi's sweeps are the power series of e).
   const Field* start = nullptr;
 };
 
@@ -74,7 +74,8 @@ struct SolveResult {
 SolveResult solve(const TransportOperator& t, const Field& e, const SolveOptions& options = {});
 
 // The scene's own emission, t.emission(), from the build's guess where it left one
-// (TransportOperator::solution_guess: a hierarchy's last solve between passes).
+// (TransportOperator::solution_guess: a hierarchy's last solve between passes); any start in
+// `options` is replaced by it.
 SolveResult solve_emission(const TransportOperator& t, SolveOptions options = {});
 
 // The relative residual ||e + T u - u|| / ||e|| of any u.
