@@ -711,8 +711,8 @@ TEST(Hierarchy, SameOperatorOnOneOrTwoThreads) {
 }
 
 // A sweep runs its waves of trees, then of reflectors, on both threads; the waves are cut by
-// the operator alone: the same sweep on 1 and 2 threads, to the bit. Roots of 50, so that
-// waves hold several trees (on roots of 100 most hold one).
+// the operator alone: the same sweep on 1 and 2 threads, to the bit. Roots of 50 (over 256), so
+// that each of the 16 waves holds many trees.
 TEST(Hierarchy, SameGaussSeidelSweepOnOneOrTwoThreads) {
   Options o = hierarchical(0.2);
   o.overrides.patch_size = 50;
