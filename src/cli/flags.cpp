@@ -188,6 +188,12 @@ void GatherFlags::add(CLI::App& app) {
              number_text(GatherOptions::final_gather(IndirectMode::kMesh).mirror_image_samples) +
              " with --indirect mesh)")
       ->check(CLI::Range(0, 4096));
+  add_enum_option(app, "--through-mirrors", through_mirrors,
+                  "Final gather: where a cosine sample or a point on the reflectors meets a "
+                  "mirror, follow it through the mirror to what it shows: where the mirror "
+                  "images give the lamps' light the mirror reflects (imaged), everywhere (always: "
+                  "the lamps then found by the samples alone, noisy where they look small), or "
+                  "never (read the mirror's specular link, one value per pair of patches)");
   app.add_option("--near-distance", near_distance,
                  "Final gather: near means within this many diameters of the patch met, blended "
                  "out at twice the distance" +
@@ -230,6 +236,7 @@ GatherOptions GatherFlags::options() const {
   if (near_samples >= 0) o.near_samples = near_samples;
   if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
   if (mirror_image_samples >= 0) o.mirror_image_samples = mirror_image_samples;
+  o.through_mirrors = through_mirrors;
   if (near_distance >= 0.0) o.near_distance = near_distance;
   if (mesh_near_distance >= 0.0) o.mesh_near_distance = mesh_near_distance;
   if (mesh_near_samples > 0) o.mesh_near_samples = mesh_near_samples;

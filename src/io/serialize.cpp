@@ -69,6 +69,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("near_distance", o.near_distance)
       .value("reflector_samples", o.reflector_samples)
       .value("mirror_image_samples", o.mirror_image_samples)
+      .value("through_mirrors", enum_name(o.through_mirrors))
       .value("indirect", enum_name(o.indirect))
       .value("mesh_near_distance", o.mesh_near_distance)
       .value("mesh_near_samples", o.mesh_near_samples)
@@ -106,6 +107,9 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the final gather drew the mirrors' images of the lamps: it drew none.
     if (r.has("mirror_image_samples"))
       o.mirror_image_samples = static_cast<int>(r.integer("mirror_image_samples", 0, 65536));
+    // Written before samples followed their rays through mirrors: the mirrors' links read.
+    o.through_mirrors = r.has("through_mirrors") ? read_enum<ThroughMirrors>(r, "through_mirrors")
+                                                 : ThroughMirrors::kNever;
     // Written before the indirect light could come from the mesh: from rays.
     if (r.has("indirect")) o.indirect = read_enum<IndirectMode>(r, "indirect");
     // Written before the mesh's near points were gathered by rays: the mesh read everywhere.

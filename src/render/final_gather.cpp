@@ -24,6 +24,10 @@
 // With mirror_image_samples, the lamps' light that a planar mirror reflects to the point is taken
 // from the lamps' images behind the mirrors' planes (mirror_images), and the diffuse part's reads
 // of a mirror's links leave that part out (subtract_mirrored_lights).
+// With through_mirrors, a cosine sample or reflector point that meets a delta mirror reads no
+// link there: it follows its ray through the mirror and reads what the mirrored ray meets
+// (through_mirror); the lamps' light it meets there is left to the mirror images where they are
+// drawn. Both strategies of the diffuse part's pair do so, so their weights still sum to one.
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
 // carry their weighted share of Le, and read nothing else (so one whose ray passes no light's
@@ -509,10 +513,53 @@ class FinalGatherer {
       const double cos_x = seen->cos_x, pdf = seen->pdf;
       const double w =
           kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) / (pdf * count);
+      if (passes_through(r.patch)) {
+        rays += through_mirror(sh.x, r.patch, r.point, seen->wi, sh.weight * sh.m.diffuse * w,
+                               imaged(r.patch), rng, terms);
+        continue;
+      }
       const Rgbf wl = scaled(sh.weight * sh.m.diffuse, w);
       add_link(r.patch, sh.i, wl, terms);
       subtract_mirrored_lights(r.patch, sh.i, wl, terms);
     }
+    return rays;
+  }
+
+  // Whether a cosine sample or reflector point that meets patch j follows its ray through it:
+  // j a delta mirror whose lamps' light the images give, or any with kAlways.
+  bool passes_through(PatchId j) const {
+    if (o_.through_mirrors == ThroughMirrors::kNever) return false;
+    if (o_.through_mirrors == ThroughMirrors::kImaged && !imaged(j)) return false;
+    const Material& m = c_.materials[c_.patches[j].material];
+    return m.has_lobe() && m.is_delta();
+  }
+  // Whether the mirror images gave a diffuse part the lamps' light that mirror j reflects.
+  bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
+
+  // A sample from x along dir met delta mirror j at p: w s_j times the radiance arriving at p
+  // along the mirrored direction, read where that ray meets patch k at z as add_arriving reads
+  // a hit: Le_k (unless `imaged`: the mirror images gave it), the reflected light B~_k - E~_k, or
+  // where z lies near x along the path the second gather there, and the link S_{k->j}. The
+  // mirror's link S_{j->i} is one value per pair of patches (of roots, on a hierarchy); this
+  // reads what the mirror shows at the sample. Returns the rays cast.
+  long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,
+                           bool imaged, Rng& rng, PixelTerms& terms) const {
+    const Patch& pj = c_.patches[j];
+    const Rgb ws = w * c_.materials[pj.material].specular;
+    const Vec3 out = dir - 2.0 * dir.dot(pj.normal) * pj.normal;
+    const Hit z = c_.caster.intersect_from(p, j, out);
+    if (!z.valid() || !z.front) return 1;
+    const PatchId k = z.patch;
+    if (c_.patches[k].emitter && !imaged) terms.emission.push_back({k, scaled(ws, 1.0)});
+    add_link(k, j, scaled(ws, 1.0), terms);
+    const DiffusePoint at = locate(c_, k, z.u, z.v);
+    // x unfolded behind the mirror's plane, as far from p as it is: the near share then
+    // measures the length of the path x -> p -> z.
+    const Vec3 unfolded = p - (p - x).norm() * out;
+    const double near = near_share(unfolded, z.position, at.diameter);
+    long long rays = 1;
+    if (near < 1.0) add_reflected(at, scaled(ws, 1.0 - near), terms, o_.diffuse);
+    if (near > 0.0) rays += near_gather(z, -out, ws * near, rng, terms);
     return rays;
   }
 
@@ -639,18 +686,23 @@ class FinalGatherer {
                          int count, Rng& rng, PixelTerms& terms, bool cosine = false) const {
     const PatchId j = h.patch;
     add_emission(sh, h, dir, w, pdf, count, terms);
-    // The specular link toward i, and the diffuse part's reflected light: from the mesh,
-    // B~ - E~, or, where y is near x, by a second gather at y (with a blend between the two).
+    // The specular link toward i (or, at a delta mirror, what it shows: through_mirror), and
+    // the diffuse part's reflected light: from the mesh, B~ - E~, or, where y is near x, by a
+    // second gather at y (with a blend between the two).
     double link_mis = 1.0;
     if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0)
       link_mis = power_heuristic(count * pdf,
                                  reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
-    const Rgbf wl = scaled(w, link_mis);
-    add_link(j, sh.i, wl, terms);
-    if (cosine) subtract_mirrored_lights(j, sh.i, wl, terms);
+    long long rays = 0;
+    if (cosine && passes_through(j)) {
+      rays += through_mirror(sh.x, j, h.position, dir, w * link_mis, imaged(j), rng, terms);
+    } else {
+      const Rgbf wl = scaled(w, link_mis);
+      add_link(j, sh.i, wl, terms);
+      if (cosine) subtract_mirrored_lights(j, sh.i, wl, terms);
+    }
     const DiffusePoint at = locate(c_, j, h.u, h.v);
     const double near = near_share(sh.x, h.position, at.diameter);
-    long long rays = 0;
     if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms, o_.diffuse);
     if (near > 0.0) rays += near_gather(h, -dir, w * near, rng, terms);
     return rays;
