@@ -422,7 +422,7 @@ TEST(Cli, GatherFlagPicksTheKindAndTheReportSaysWhich) {
     const std::string img = (dir / "f.pfm").string(), rep = (dir / "f.json").string();
     const bool points = std::string(kind) == "final";  // and points on the reflectors (none here)
     const std::string flag = (*kind ? std::string(" --gather ") + kind : std::string()) +
-                             (points ? " --reflector-samples 4" : "");
+                             (points ? " --reflector-samples 4 --through-mirrors never" : "");
     CommandRun r =
         run("render " + test::scene_path("furnace") + " -o " + img + " --report " + rep + flag);
     ASSERT_EQ(r.code, 0) << r.err;
@@ -434,11 +434,16 @@ TEST(Cli, GatherFlagPicksTheKindAndTheReportSaysWhich) {
     EXPECT_EQ(options->find("reflector_samples")->number, expected_points);
     // No mirror in the furnace: no images drawn, and the report says so.
     EXPECT_EQ(options->find("mirror_image_samples")->number, 0.0);
+    EXPECT_EQ(options->find("through_mirrors")->string, points ? "never" : "imaged");
     Image image = read_image(img);
     for (float v : image.rgb) ASSERT_NEAR(v, 2.0, 0.04);
   }
   EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
                 " --gather photon")
+                .code,
+            2);
+  EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +
+                " --through-mirrors sometimes")
                 .code,
             2);
   EXPECT_EQ(run("render " + test::scene_path("furnace") + " -o " + (dir / "x.pfm").string() +

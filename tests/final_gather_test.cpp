@@ -312,7 +312,8 @@ std::string lambert_plus_mirror(double d, double s) {
 // them, for the same reason.
 // No mirror images unless asked (mirror_images): a read of a mirror's link then brings all of
 // its light, as much as any other direction's, so the cosine samples see a flat field; with the
-// images a mirror's direction reads only what its lamps' images do not give (below).
+// images a mirror's direction reads only what its lamps' images do not give (below): through
+// the mirror, or with `through` kNever its link less the lamps' part.
 void expect_furnace(const std::vector<std::string>& faces, double a, int near_samples = 4,
                     DiffuseMode reads = DiffuseMode::kFlat, const SystemOptions& system = {},
                     int reflector_samples = GatherOptions::final_gather().reflector_samples,
@@ -438,18 +439,21 @@ TEST(FinalGather, ReflectorPointsLowerTheNoiseOfTheMirrorsLight) {
 }
 
 // The lamps' light that one mirror reflects, taken at each point from the lamps' images and
-// left out of the mirrors' links where the diffuse part reads them: counted twice (the links
-// read whole), the mixed box reads 7.4 percent bright on average, pixels up to 12; left out (no
-// images), 7.4 percent dark. Reading a mirror's link then no
-// longer brings as much as any other direction (its images bring the rest), so the cosine
-// samples see a field that is not flat and the images carry their own noise: four times the
-// cosine samples and 4096 images for the half percent at every pixel (at 256 and 1024, pixels
-// from -0.7 to +0.5 percent, the image's mean within 1e-4).
+// left out where the diffuse part reads a mirror: of the mirrors' links (`never`; counted twice,
+// the links read whole, the mixed box reads 7.4 percent bright on average, pixels up to 12;
+// left out, no images, 7.4 percent dark), or of what the samples read through the mirror (the
+// default). Reading a mirror then no longer brings as much as any other direction (its images
+// bring the rest), so the cosine samples see a field that is not flat and the images carry
+// their own noise: four times the cosine samples and 4096 images for the half percent at every
+// pixel (links at 256 and 1024: pixels from -0.7 to +0.5 percent, the image's mean within
+// 1e-4; through the mirrors -0.4 to +0.3).
 TEST(FinalGather, FurnaceHoldsWithMirrorImages) {
   const std::vector<std::string> mixed = {
       grey("diffuse", 0.6), grey("mirror", 0.6),  lambert_plus_mirror(0.3, 0.3),
       grey("mirror", 0.6),  grey("diffuse", 0.6), lambert_plus_mirror(0.2, 0.4)};
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, IndirectMode::kRays, 4096, 1024);
+  expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, IndirectMode::kRays, 4096, 1024, 5e-3,
+                 0.0, 0, ThroughMirrors::kNever);
   // With the indirect light from the mesh, the read of the unknown under x leaves out what the
   // mirrors' links brought it of the lamps' light (render/mesh_direct.h). That read is the
   // patch's mean, the images' light the point's own, which changes over the patch with the
@@ -515,6 +519,8 @@ TEST(FinalGather, FurnacesHoldWithTheMeshsNearPointsGatheredByRays) {
                  0, mesh, 0, 256, 5e-3, 0.5, 1024);
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, mesh, 0, 256, 5e-3, 0.5, 1024);
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, mesh, 4096, 256, 2e-2, 0.5, 1024);
+  expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 0, mesh, 4096, 256, 2e-2, 0.5, 1024,
+                 ThroughMirrors::kNever);
   expect_furnace(mixed, 0.6, 4, DiffuseMode::kFlat, {}, 64, mesh, 0, 256, 5e-3, 0.5, 1024);
 }
 
@@ -1000,6 +1006,7 @@ TEST(FinalGather, FileRecordsTheGatherAndOlderFilesReadAsThePatchGather) {
   ASSERT_NO_FATAL_FAILURE(read_without(path, "\"kind\"", "\"diffuse\"", old));
   EXPECT_EQ(old.gather.kind, GatherKind::kPatch);
   EXPECT_EQ(old.gather.light_samples, 9);
+  EXPECT_EQ(old.gather.through_mirrors, ThroughMirrors::kNever);
 
   // A final gather written before the reflector points: none drawn.
   SeriesOperator before;

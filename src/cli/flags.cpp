@@ -191,9 +191,10 @@ void GatherFlags::add(CLI::App& app) {
   add_enum_option(app, "--through-mirrors", through_mirrors,
                   "Final gather: where a cosine sample or a point on the reflectors meets a "
                   "mirror, follow it through the mirror to what it shows: where the mirror "
-                  "images give the lamps' light the mirror reflects (imaged), everywhere (always: "
-                  "the lamps then found by the samples alone, noisy where they look small), or "
-                  "never (read the mirror's specular link, one value per pair of patches)");
+                  "images give the lamps' light the mirror reflects (imaged), at every mirror "
+                  "(always: the lamps seen in a mirror without images then found by the samples "
+                  "alone, noisy where they look small), or never (read the mirror's specular "
+                  "link, one value per pair of patches)");
   app.add_option("--near-distance", near_distance,
                  "Final gather: near means within this many diameters of the patch met, blended "
                  "out at twice the distance" +

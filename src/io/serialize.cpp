@@ -81,6 +81,8 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
 GatherOptions read_gather_options(const JsonValue& v) {
   ObjectReader r(v, "the gather options");
   GatherOptions o;
+  // Written before samples followed their rays through mirrors: the mirrors' links read.
+  o.through_mirrors = ThroughMirrors::kNever;
   o.diffuse = read_enum<DiffuseMode>(r, "diffuse");
   o.pixel_grid = static_cast<int>(r.integer("pixel_grid", 1, 16));
   o.lobe_samples = static_cast<int>(r.integer("lobe_samples", 1, 4096));
@@ -107,9 +109,8 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the final gather drew the mirrors' images of the lamps: it drew none.
     if (r.has("mirror_image_samples"))
       o.mirror_image_samples = static_cast<int>(r.integer("mirror_image_samples", 0, 65536));
-    // Written before samples followed their rays through mirrors: the mirrors' links read.
-    o.through_mirrors = r.has("through_mirrors") ? read_enum<ThroughMirrors>(r, "through_mirrors")
-                                                 : ThroughMirrors::kNever;
+    if (r.has("through_mirrors"))
+      o.through_mirrors = read_enum<ThroughMirrors>(r, "through_mirrors");
     // Written before the indirect light could come from the mesh: from rays.
     if (r.has("indirect")) o.indirect = read_enum<IndirectMode>(r, "indirect");
     // Written before the mesh's near points were gathered by rays: the mesh read everywhere.

@@ -24,10 +24,11 @@
 // With mirror_image_samples, the lamps' light that a planar mirror reflects to the point is taken
 // from the lamps' images behind the mirrors' planes (mirror_images), and the diffuse part's reads
 // of a mirror's links leave that part out (subtract_mirrored_lights).
-// With through_mirrors, a cosine sample or reflector point that meets a delta mirror reads no
-// link there: it follows its ray through the mirror and reads what the mirrored ray meets
-// (through_mirror); the lamps' light it meets there is left to the mirror images where they are
-// drawn. Both strategies of the diffuse part's pair do so, so their weights still sum to one.
+// With through_mirrors, a cosine sample or reflector point that meets a delta mirror (kImaged:
+// one whose images are drawn, where no reflector points are) reads no link there: it follows its
+// ray through the mirror and reads what the mirrored ray meets (through_mirror); the lamps'
+// light it meets there is left to the mirror images where they are drawn. Both strategies of
+// the diffuse part's pair decide by the mirror met, so their weights still sum to one.
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
 // carry their weighted share of Le, and read nothing else (so one whose ray passes no light's
@@ -537,9 +538,10 @@ class FinalGatherer {
   bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
 
   // A sample from x along dir met delta mirror j at p: w s_j times the radiance arriving at p
-  // along the mirrored direction, read where that ray meets patch k at z as add_arriving reads
-  // a hit: Le_k (unless `imaged`: the mirror images gave it), the reflected light B~_k - E~_k, or
-  // where z lies near x along the path the second gather there, and the link S_{k->j}. The
+  // along the mirrored direction, read where that ray meets patch k at z: Le_k whole (no light
+  // point draws that path), unless `imaged` (the mirror images gave it); the reflected light
+  // B~_k - E~_k, or where z lies near x along the path the second gather there; and the link
+  // S_{k->j}. The
   // mirror's link S_{j->i} is one value per pair of patches (of roots, on a hierarchy); this
   // reads what the mirror shows at the sample. Returns the rays cast.
   long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,

@@ -31,12 +31,14 @@
 // part of the link, sum_o D(j->i, o) e_o (render/mesh_direct.h), so nothing is counted twice;
 // with IndirectMode::kMesh the read of the unknown under x leaves out what the mirrors' links
 // brought it of the lamps' light likewise.
-// Where a cosine sample or a reflector point meets a delta mirror j whose lamps' light the mirror
-// images give (through_mirrors), the gather follows it through the mirror: s_j times what the
-// mirrored ray meets, its reflected light B~ - E~ at the unknown under the hit and its link
-// toward j; so what a mirror shows is resolved per sample, not per pair of patches (on a
-// hierarchy, of roots). Lobe samples, the second gather and the mirror chains read the links
-// whole.
+// Where a cosine sample meets a delta mirror j whose lamps' light the mirror images give
+// (through_mirrors, default kImaged), the gather follows it through the mirror: s_j times what
+// the mirrored ray meets, its reflected light B~ - E~ at the unknown under the hit (or the second
+// gather there, where the path through the mirror is short) and its link toward j; so what a
+// mirror shows is resolved per sample, not per pair of patches (on a hierarchy, of roots). With
+// kAlways every delta mirror is followed, by the reflector points on it too (none are drawn on
+// imaged mirrors), and the Le met through a mirror the images do not give is read there. Lobe
+// samples, the second gather and the mirror chains read the links whole.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
 // With IndirectMode::kMesh the diffuse part's first bounce is not gathered: at a hit on unknown
 // l it is read as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it
@@ -104,10 +106,11 @@ struct EnumNames<IndirectMode> {
       {{IndirectMode::kRays, "rays"}, {IndirectMode::kMesh, "mesh"}}};
 };
 // Where a final gather's cosine sample or reflector point meets a delta mirror j: read its link
-// S_{j->i}, one value per pair of patches (of roots, on a hierarchy); or follow the sample through
-// the mirror and read what the mirrored ray meets, where the mirror images give the lamps' light
-// that j reflects (kImaged), or everywhere, the lamps met through mirrors then found by the
-// samples alone (kAlways: without bias, but noisy where a lamp looks small).
+// S_{j->i}, one value per pair of patches (of roots, on a hierarchy) (kNever); or follow the
+// sample through the mirror and read what the mirrored ray meets, where the mirror images give
+// the lamps' light that j reflects (kImaged), or at every mirror (kAlways: the lamps seen in a
+// mirror without images, a bent one or all with mirror_image_samples 0, then found by the
+// samples alone, without bias but noisy where a lamp looks small).
 enum class ThroughMirrors { kNever, kImaged, kAlways };
 template <>
 struct EnumNames<ThroughMirrors> {
