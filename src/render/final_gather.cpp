@@ -541,9 +541,8 @@ class FinalGatherer {
   // along the mirrored direction, read where that ray meets patch k at z: Le_k whole (no light
   // point draws that path), unless `imaged` (the mirror images gave it); the reflected light
   // B~_k - E~_k, or where z lies near x along the path the second gather there; and the link
-  // S_{k->j}. The
-  // mirror's link S_{j->i} is one value per pair of patches (of roots, on a hierarchy); this
-  // reads what the mirror shows at the sample. Returns the rays cast.
+  // S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on a
+  // hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
   long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,
                            bool imaged, Rng& rng, PixelTerms& terms) const {
     const Patch& pj = c_.patches[j];
