@@ -73,7 +73,8 @@ for variant in sharp rough; do
   fi
   for size in "${sizes[@]}"; do
     base="$out/$variant-p$size"
-    "$POLYRAD" --quiet render "$scene" --patch-size "$size" --tolerance 1e-6 -o "$base.pfm" \
+    "$POLYRAD" --quiet render "$scene" --gather patch --mesh uniform --patch-size "$size" \
+      --tolerance 1e-6 -o "$base.pfm" \
       --light-samples "$light_samples" --report "$base.json" 2> "$base.stderr"
     "$POLYRAD" --quiet compare "$base.pfm" "$ref" --scene "$scene" --report "$base-cmp.json" \
       --side-by-side "$base-compare.png" >/dev/null

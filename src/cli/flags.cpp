@@ -173,11 +173,14 @@ void GatherFlags::add(CLI::App& app) {
                  "sample lands near the point it left (0: read the patch there)" +
                      final_only(final.near_samples))
       ->check(CLI::Range(0, 4096));
-  app.add_option("--reflector-samples", reflector_samples,
-                 "Final gather: points on the mirrors and glossy surfaces that send specular light, "
-                 "per hit with a diffuse part, weighted against the cosine samples (0: the cosine "
-                 "samples alone)" +
-                     final_only(final.reflector_samples))
+  app.add_option(
+         "--reflector-samples", reflector_samples,
+         "Final gather: points on the mirrors and glossy surfaces that send specular light, "
+         "per hit with a diffuse part, weighted against the cosine samples (0: the cosine "
+         "samples alone; default " +
+             number_text(final.reflector_samples) + ", " +
+             number_text(GatherOptions::final_gather(IndirectMode::kMesh).reflector_samples) +
+             " with --indirect mesh)")
       ->check(CLI::Range(0, 4096));
   app.add_option(
          "--mirror-images", mirror_image_samples,

@@ -75,7 +75,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
   f->gather.add(*cmd);
   cmd->add_flag(
       "--quick", f->quick,
-      "The demo's preset, about two minutes on 2 cores: patch sizes 100,50,35, the gather's link "
+      "The demo's preset, about three minutes on 2 cores: patch sizes 100,50,35, the gather's link "
       "tolerance, drops 0,1e-3, reference at 512 spp (flags given explicitly still win)");
   cmd->callback([f, patch_sizes, tolerances, drops, reference_spp, &exit_code] {
     f->options.gather = f->gather.options();

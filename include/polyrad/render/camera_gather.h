@@ -220,7 +220,7 @@ struct GatherOptions {
   // hierarchical 0.0788 -> 0.0699, and with the indirect light from the mesh 0.0817 -> 0.0761
   // (32 and 64 the same, 16 0.0763); on the room 16 gave 0.0528 and 64 0.0518 against 0.0526
   // without (README, "Mirror images of the lamps"). With the indirect light from the mesh, points
-  // within 2 diameters (on a hierarchy, at least one root's) of a surface are gathered by 64
+  // within 2 diameters (on a hierarchy, at least half its root's) of a surface are gathered by 64
   // rays: on the hierarchy, relative RMSE cornell-box 0.0594 -> 0.0463, cornell-glossy 0.0682 ->
   // 0.0625, the mirror cube 0.0761 -> 0.0694, for 1.1 to 1.8 s more (README, "Near surfaces,
   // rays").
