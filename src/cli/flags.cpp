@@ -133,6 +133,12 @@ void GatherFlags::add(CLI::App& app) {
            " for the final)";
   };
   auto final_only = [](double f) { return " (default " + number_text(f) + ")"; };
+  // "default F, M with --indirect mesh" of a final-gather count, from a member of the options.
+  const GatherOptions mesh_mode = GatherOptions::final_gather(IndirectMode::kMesh);
+  auto final_and_mesh = [&](int GatherOptions::*count) {
+    return "default " + number_text(final.*count) + ", " + number_text(mesh_mode.*count) +
+           " with --indirect mesh";
+  };
   add_enum_option(app, "--gather", kind,
                   "How pixels read the solution: final (direct light and first bounce per pixel, "
                   "the mesh one bounce away) or patch (each pixel reads the patches it sees)");
@@ -159,13 +165,12 @@ void GatherFlags::add(CLI::App& app) {
                  "(default " +
                      number_text(patch.light_samples) + " for the patch gather, " +
                      number_text(final.light_samples) + " for the final, " +
-                     number_text(GatherOptions::final_gather(IndirectMode::kMesh).light_samples) +
-                     " with --indirect mesh)")
+                     number_text(mesh_mode.light_samples) + " with --indirect mesh)")
       ->check(CLI::Range(0, 4096));
   app.add_option("--gather-samples", gather_samples,
                  "Final gather: cosine samples of a diffuse surface per sub-pixel ray (default " +
                      number_text(final.gather_samples) + "; " +
-                     number_text(GatherOptions::final_gather(IndirectMode::kMesh).gather_samples) +
+                     number_text(mesh_mode.gather_samples) +
                      " with --indirect mesh, where they only find the lights)")
       ->check(CLI::Range(1, 4096));
   app.add_option("--near-samples", near_samples,
@@ -177,19 +182,14 @@ void GatherFlags::add(CLI::App& app) {
          "--reflector-samples", reflector_samples,
          "Final gather: points on the mirrors and glossy surfaces that send specular light, "
          "per hit with a diffuse part, weighted against the cosine samples (0: the cosine "
-         "samples alone; default " +
-             number_text(final.reflector_samples) + ", " +
-             number_text(GatherOptions::final_gather(IndirectMode::kMesh).reflector_samples) +
-             " with --indirect mesh)")
+         "samples alone; " +
+             final_and_mesh(&GatherOptions::reflector_samples) + ")")
       ->check(CLI::Range(0, 4096));
-  app.add_option(
-         "--mirror-images", mirror_image_samples,
-         "Final gather: light points per hit with a diffuse part for the lamps' light "
-         "that planar mirrors reflect to it, seen at their mirror images (0: the mirrors' "
-         "specular links carry it; default " +
-             number_text(final.mirror_image_samples) + ", " +
-             number_text(GatherOptions::final_gather(IndirectMode::kMesh).mirror_image_samples) +
-             " with --indirect mesh)")
+  app.add_option("--mirror-images", mirror_image_samples,
+                 "Final gather: light points per hit with a diffuse part for the lamps' light "
+                 "that planar mirrors reflect to it, seen at their mirror images (0: the mirrors' "
+                 "specular links carry it; " +
+                     final_and_mesh(&GatherOptions::mirror_image_samples) + ")")
       ->check(CLI::Range(0, 4096));
   add_enum_option(app, "--through-mirrors", through_mirrors,
                   "Final gather: where a cosine sample or a point on the reflectors meets a "
@@ -203,23 +203,22 @@ void GatherFlags::add(CLI::App& app) {
                  "out at twice the distance" +
                      final_only(final.near_distance))
       ->check(CLI::Range(0.0, 1e9));
-  const GatherOptions mesh = GatherOptions::final_gather(IndirectMode::kMesh);
   app.add_option("--mesh-near-distance", mesh_near_distance,
                  "Final gather with --indirect mesh: a point where one of up to 8 cosine probes, "
                  "this many times the diameter of the unknown under it long (on a hierarchy at "
                  "least half its root's), meets a surface is gathered by rays instead of read "
                  "from that unknown (0: read the mesh everywhere; default " +
-                     number_text(mesh.mesh_near_distance) + ")")
+                     number_text(mesh_mode.mesh_near_distance) + ")")
       ->check(CLI::Range(0.0, 1e9));
   app.add_option("--mesh-read", mesh_read,
                  "Final gather with --indirect mesh: how the mesh gives a point its light: "
                  "smooth (bilinear in the averages at the corners of the unknowns under it) or "
                  "flat (the mean of the one under it) (default " +
-                     std::string(enum_name(mesh.mesh_read)) + ")")
+                     std::string(enum_name(mesh_mode.mesh_read)) + ")")
       ->check(CLI::IsMember(enum_names<DiffuseMode>()));
   app.add_option("--mesh-near-samples", mesh_near_samples,
                  "Final gather with --indirect mesh: cosine samples at such a point (default " +
-                     number_text(mesh.mesh_near_samples) + ")")
+                     number_text(mesh_mode.mesh_near_samples) + ")")
       ->check(CLI::Range(1, 4096));
 }
 
