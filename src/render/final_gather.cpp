@@ -440,7 +440,7 @@ class FinalGatherer {
     const Vec3 to = image - sh.x;
     const double dist2 = to.squaredNorm();
     const Vec3 wi = to / std::sqrt(dist2);
-    const Vec3 onward = wi - 2.0 * wi.dot(plane.normal) * plane.normal;  // from the mirror to p
+    const Vec3 onward = reflect_in_plane(wi, plane.normal);  // from the mirror to p
     const double cos_x = wi.dot(sh.frame.n);
     const double cos_p = -onward.dot(c_.patches[l.patch].normal);
     if (!(cos_x > 0.0) || !(cos_p > 0.0)) return 0;
@@ -514,16 +514,23 @@ class FinalGatherer {
       const double cos_x = seen->cos_x, pdf = seen->pdf;
       const double w =
           kInvPi * cos_x * power_heuristic(count * pdf, nd * cos_x * kInvPi) / (pdf * count);
-      if (passes_through(r.patch)) {
-        rays += through_mirror(sh.x, r.patch, r.point, seen->wi, sh.weight * sh.m.diffuse * w,
-                               imaged(r.patch), rng, terms);
-        continue;
-      }
-      const Rgbf wl = scaled(sh.weight * sh.m.diffuse, w);
-      add_link(r.patch, sh.i, wl, terms);
-      subtract_mirrored_lights(r.patch, sh.i, wl, terms);
+      rays += read_specular(sh, r.patch, r.point, seen->wi, sh.weight * sh.m.diffuse * w, true, rng,
+                            terms);
     }
     return rays;
+  }
+
+  // What reflector j sends x along dir (met at p), w times: the diffuse part's (`diffuse`: a
+  // cosine sample or reflector point) reads through a mirror that passes_through, or the link
+  // S_{j->i} less the lamps' part the images gave; a lobe sample reads the link whole. Returns
+  // the rays cast.
+  long long read_specular(const Shading& sh, PatchId j, const Vec3& p, const Vec3& dir,
+                          const Rgb& w, bool diffuse, Rng& rng, PixelTerms& terms) const {
+    if (diffuse && passes_through(j)) return through_mirror(sh.x, j, p, dir, w, rng, terms);
+    const Rgbf wl = scaled(w, 1.0);
+    add_link(j, sh.i, wl, terms);
+    if (diffuse) subtract_mirrored_lights(j, sh.i, wl, terms);
+    return 0;
   }
 
   // Whether a cosine sample or reflector point that meets patch j follows its ray through it:
@@ -539,19 +546,19 @@ class FinalGatherer {
 
   // A sample from x along dir met delta mirror j at p: w s_j times the radiance arriving at p
   // along the mirrored direction, read where that ray meets patch k at z: Le_k whole (no light
-  // point draws that path), unless `imaged` (the mirror images gave it); the reflected light
+  // point draws that path), unless imaged(j) (the mirror images gave it); the reflected light
   // B~_k - E~_k, or where z lies near x along the path the second gather there; and the link
   // S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on a
   // hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
   long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,
-                           bool imaged, Rng& rng, PixelTerms& terms) const {
+                           Rng& rng, PixelTerms& terms) const {
     const Patch& pj = c_.patches[j];
     const Rgb ws = w * c_.materials[pj.material].specular;
-    const Vec3 out = dir - 2.0 * dir.dot(pj.normal) * pj.normal;
+    const Vec3 out = reflect_in_plane(dir, pj.normal);
     const Hit z = c_.caster.intersect_from(p, j, out);
     if (!z.valid() || !z.front) return 1;
     const PatchId k = z.patch;
-    if (c_.patches[k].emitter && !imaged) terms.emission.push_back({k, scaled(ws, 1.0)});
+    if (c_.patches[k].emitter && !imaged(j)) terms.emission.push_back({k, scaled(ws, 1.0)});
     add_link(k, j, scaled(ws, 1.0), terms);
     const DiffusePoint at = locate(c_, k, z.u, z.v);
     // x unfolded behind the mirror's plane, as far from p as it is: the near share then
@@ -694,14 +701,7 @@ class FinalGatherer {
     if (cosine && reflector_count_ > 0 && c_.reflectors.select_pdf(j) > 0.0)
       link_mis = power_heuristic(count * pdf,
                                  reflector_count_ * solid_angle_pdf(c_.reflectors, h, sh.x, dir));
-    long long rays = 0;
-    if (cosine && passes_through(j)) {
-      rays += through_mirror(sh.x, j, h.position, dir, w * link_mis, imaged(j), rng, terms);
-    } else {
-      const Rgbf wl = scaled(w, link_mis);
-      add_link(j, sh.i, wl, terms);
-      if (cosine) subtract_mirrored_lights(j, sh.i, wl, terms);
-    }
+    long long rays = read_specular(sh, j, h.position, dir, w * link_mis, cosine, rng, terms);
     const DiffusePoint at = locate(c_, j, h.u, h.v);
     const double near = near_share(sh.x, h.position, at.diameter);
     if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms, o_.diffuse);

@@ -106,6 +106,8 @@ struct Frame {
 };
 
 inline Vec3 reflect_about_normal(const Vec3& w) { return Vec3(-w.x(), -w.y(), w.z()); }
+// A world direction d after a mirror of unit normal n: d reflected in the mirror's plane.
+inline Vec3 reflect_in_plane(const Vec3& d, const Vec3& n) { return d - 2.0 * d.dot(n) * n; }
 Vec3 sample_cosine_hemisphere(const Vec2& u);
 
 }  // namespace polyrad
