@@ -178,6 +178,17 @@ TEST(FinalGather, PenumbraMatchesTheVisibleLampPixelByPixel) {
 
 // ---- the mirror image of a lamp ----------------------------------------------------------------
 
+// At a strip point p (height 150, facing down, reflectance 0.5): 0.5 * 0.9 times the form
+// factor of the part of an image [x0, x1] x [-z, z] at height -100 (a surface at height 100 seen
+// in the mirror) that lies inside the mirror's [-m, m]^2 at height 0 projected from p onto the
+// image's plane (250 / 150 as far): the radiance a unit radiance there sends p through the mirror.
+double seen_through_mirror(const Vec3& p, double m, double x0, double x1, double z) {
+  const double px = p.x(), pz = p.z(), k = 250.0 / 150.0;
+  const double a0 = std::max(x0, px + (-m - px) * k), a1 = std::min(x1, px + (m - px) * k);
+  const double b0 = std::max(-z, pz + (-m - pz) * k), b1 = std::min(z, pz + (m - pz) * k);
+  return 0.5 * 0.9 * rectangle_ff(px, pz, a0, a1, b0, b1, 250.0);
+}
+
 // A 20 x 20 lamp (radiance 10, facing down) at height 100 over a 20 x 20 mirror (reflectance
 // 0.9) at height 0, and a strip (reflectance 0.5, facing down) at height 150 above and beside
 // both: the strip sees the lamp only from behind (black), and its image, 100 below the mirror,
@@ -213,14 +224,10 @@ struct MirroredLamp {
     solution = converged(*sys);
   }
 
-  // At a strip point (px, 150, pz): the image [-60, -40] x [-10, 10] at height -100, and the
-  // mirror's [-10, 10]^2 at height 0 projected from the point onto it (250 / 150 as far).
+  // At a strip point: the image [-60, -40] x [-10, 10] of the lamp (radiance 10) through the
+  // mirror's [-10, 10]^2.
   static double exact_radiance(const Vec3& p) {
-    const double px = p.x(), pz = p.z(), k = 250.0 / 150.0;
-    const double x0 = std::max(-60.0, px + (-10 - px) * k),
-                 x1 = std::min(-40.0, px + (10 - px) * k);
-    const double z0 = std::max(-10.0, pz + (-10 - pz) * k), z1 = std::min(10.0, pz + (10 - pz) * k);
-    return 0.5 * 0.9 * 10.0 * rectangle_ff(px, pz, x0, x1, z0, z1, 250.0);
+    return 10.0 * seen_through_mirror(p, 10.0, -60.0, -40.0, 10.0);
   }
 
   // The pixel's mean where it meets the strip; NaN if any of its points misses it.
@@ -334,14 +341,9 @@ struct MirroredCard {
     EXPECT_EQ(cards, 1);
   }
 
-  // At a strip point (px, 150, pz): the card's image [-90, -30] x [-30, 30] at height -100, and
-  // the mirror's [-30, 30]^2 at height 0 projected from the point onto it (250 / 150 as far).
+  // At a strip point: the card's image [-90, -30] x [-30, 30] through the mirror's [-30, 30]^2.
   double exact_radiance(const Vec3& p) const {
-    const double px = p.x(), pz = p.z(), k = 250.0 / 150.0;
-    const double x0 = std::max(-90.0, px + (-30 - px) * k),
-                 x1 = std::min(-30.0, px + (30 - px) * k);
-    const double z0 = std::max(-30.0, pz + (-30 - pz) * k), z1 = std::min(30.0, pz + (30 - pz) * k);
-    return 0.5 * 0.9 * card * rectangle_ff(px, pz, x0, x1, z0, z1, 250.0);
+    return card * seen_through_mirror(p, 30.0, -90.0, -30.0, 30.0);
   }
   double exact_pixel(int x, int y) const {
     return pixel_mean_on_plane(sys->scene().camera, x, y, 150.0, [this](const Vec3& p) {
