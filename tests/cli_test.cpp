@@ -561,6 +561,7 @@ TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
       {"render", " --link-tolerance 0.1", "hierarchical"},
       {"render", " --refine-passes 0", "hierarchical"},
       {"render", " --min-element-size 0.5", "hierarchical"},
+      {"render", " --mirror-links true", "hierarchical"},
       {"render", " --refine-passes 0 --mesh uniform", "uniform"},
       {"render", " --gather patch", "hierarchical"},
       {"render", " --gather patch --mesh uniform", "uniform"},
@@ -581,6 +582,33 @@ TEST(Cli, MeshFollowsTheGatherUnlessGiven) {
     EXPECT_EQ(report.find("system")->find("hierarchy") != nullptr, c.mesh == "hierarchical")
         << c.command << c.flags;
   }
+}
+
+// --mirror-links: the report counts the image links and the mirror planes they go through (the
+// mirror cube's block: five faces), none without the flag; a value that is not a truth value is
+// exit 2 with nothing written.
+TEST(Cli, MirrorLinksAreCountedInTheReport) {
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "i.pfm").string(), rep = (dir / "i.json").string();
+  const std::string base = "render " + test::scene_path("cornell-mirror-cube") + " -o " + img +
+                           " --report " + rep + kQuickGather +
+                           " --gather patch --patch-size 100 --link-tolerance 0.2";
+  for (bool on : {true, false}) {
+    CommandRun r = run(base + (on ? " --mirror-links true" : ""));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const JsonValue* h = test::read_json(rep).find("system")->find("hierarchy");
+    ASSERT_NE(h, nullptr);
+    EXPECT_EQ(h->find("mirror_planes")->number, on ? 5 : 0);
+    if (on) {
+      EXPECT_GT(h->find("image_links")->number, 0);
+    } else {
+      EXPECT_EQ(h->find("image_links")->number, 0);
+    }
+  }
+  std::filesystem::remove(img);
+  CommandRun bad = run(base + " --mirror-links maybe");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_FALSE(std::filesystem::exists(img));
 }
 
 // --indirect mesh: the report and the operator file say so, the render reports the mesh's

@@ -121,6 +121,40 @@ std::string closed_box_json(const Vec3& size, double patch_size,
   return s.str();
 }
 
+const char* const kMirrorFloor = R"({
+  "camera": {"position": [0, 3, -4], "look_at": [0, 0, 0], "fov_deg": 40, "width": 8, "height": 8},
+  "patch_size": 0.25,
+  "materials": {
+    "black": {"type": "diffuse", "reflectance": [0, 0, 0]},
+    "card":  {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
+    "glass": {"type": "mirror",  "reflectance": [0.8, 0.8, 0.8]}
+  },
+  "objects": [
+    {"name": "lamp", "material": "black", "emission": [1, 1, 1], "patch_size": 0.1,
+     "polygon": [[-1.2, 1, -0.2], [-0.8, 1, -0.2], [-0.8, 1, 0.2], [-1.2, 1, 0.2]]},
+    {"name": "receiver", "material": "card", "patch_size": 1,
+     "polygon": [[RX0, 1, -0.2], [RX1, 1, -0.2], [RX1, 1, 0.2], [RX0, 1, 0.2]]},
+    {"name": "mirror", "material": "glass",
+     "polygon": [[MX0, 0, MZ0], [MX0, 0, MZ1], [MX1, 0, MZ1], [MX1, 0, MZ0]]}
+  ]
+})";
+
+std::string mirror_floor_json(double rx0, double rx1, double mx0, double mx1, double mz0,
+                              double mz1) {
+  std::string s = kMirrorFloor;
+  auto put = [&](const std::string& key, double v) {
+    for (size_t at; (at = s.find(key)) != std::string::npos;)
+      s.replace(at, key.size(), std::to_string(v));
+  };
+  put("RX0", rx0);
+  put("RX1", rx1);
+  put("MX0", mx0);
+  put("MX1", mx1);
+  put("MZ0", mz0);
+  put("MZ1", mz1);
+  return s;
+}
+
 double parallel_rectangles_ff(double a, double b, double c) {
   double X = a / c, Y = b / c;
   double x1 = std::sqrt(1 + X * X), y1 = std::sqrt(1 + Y * Y);

@@ -75,6 +75,13 @@ std::string closed_box_json(const Vec3& size, double patch_size, const std::stri
 std::string closed_box_json(const Vec3& size, double patch_size,
                             const std::vector<std::string>& face_materials, double emission);
 
+// A lamp (emission 1, black, 0.4 x 0.4 at x in [-1.2, -0.8], height 1, facing down) and a
+// receiver (reflectance 0.5, x in [rx0, rx1]) side by side above a mirror floor (reflectance
+// 0.8, [mx0, mx1] x [mz0, mz1] at height 0): light reaches the receiver only by the mirror, as if
+// from the lamp's mirror image 2 below it.
+std::string mirror_floor_json(double rx0, double rx1, double mx0, double mx1, double mz0,
+                              double mz1);
+
 // The form factor of two directly opposed parallel a x b rectangles at distance c
 // (papers/glossy-radiosity.md, section 10) and of perpendicular rectangles sharing an edge of
 // length l, from the w-side to the h-side.

@@ -99,41 +99,6 @@ TEST_P(MixedFurnace, RadianceIsEmissionOverOneMinusAlbedoEverywhere) {
 
 INSTANTIATE_TEST_SUITE_P(Albedo, MixedFurnace, ::testing::Values(0.5, 0.9));
 
-// A lamp and a receiver side by side, facing a mirror floor: light reaches the receiver only by
-// the mirror, as if from the lamp's mirror image.
-const char* kMirrorScene = R"({
-  "camera": {"position": [0, 3, -4], "look_at": [0, 0, 0], "fov_deg": 40, "width": 8, "height": 8},
-  "patch_size": 0.25,
-  "materials": {
-    "black": {"type": "diffuse", "reflectance": [0, 0, 0]},
-    "card":  {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
-    "glass": {"type": "mirror",  "reflectance": [0.8, 0.8, 0.8]}
-  },
-  "objects": [
-    {"name": "lamp", "material": "black", "emission": [1, 1, 1], "patch_size": 0.1,
-     "polygon": [[-1.2, 1, -0.2], [-0.8, 1, -0.2], [-0.8, 1, 0.2], [-1.2, 1, 0.2]]},
-    {"name": "receiver", "material": "card", "patch_size": 1,
-     "polygon": [[RX0, 1, -0.2], [RX1, 1, -0.2], [RX1, 1, 0.2], [RX0, 1, 0.2]]},
-    {"name": "mirror", "material": "glass",
-     "polygon": [[MX0, 0, MZ0], [MX0, 0, MZ1], [MX1, 0, MZ1], [MX1, 0, MZ0]]}
-  ]
-})";
-
-std::string mirror_scene(double rx0, double rx1, double mx0, double mx1, double mz0, double mz1) {
-  std::string s = kMirrorScene;
-  auto put = [&](const std::string& key, double v) {
-    for (size_t at; (at = s.find(key)) != std::string::npos;)
-      s.replace(at, key.size(), std::to_string(v));
-  };
-  put("RX0", rx0);
-  put("RX1", rx1);
-  put("MX0", mx0);
-  put("MX1", mx1);
-  put("MZ0", mz0);
-  put("MZ1", mz1);
-  return s;
-}
-
 // B of the receiver after two sweeps (lamp -> mirror -> receiver, nothing more).
 double receiver_first_bounce(const std::string& json, int samples) {
   SystemOptions so;
@@ -154,7 +119,7 @@ TEST(Transport, MirrorImageOfTheLamp) {
   // at y = -1 across the gap of 2: B = d * rho * E * F(receiver -> image).
   double f = test::parallel_offset_rectangles_ff(0.8, 1.2, -0.2, 0.2, -1.2, -0.8, -0.2, 0.2, 2.0);
   double expect = 0.5 * 0.8 * 1.0 * f;
-  double b = receiver_first_bounce(mirror_scene(0.8, 1.2, -2, 2, -1, 1), 64);
+  double b = receiver_first_bounce(test::mirror_floor_json(0.8, 1.2, -2, 2, -1, 1), 64);
   EXPECT_NEAR(b, expect, 0.01 * expect);
 }
 
@@ -181,8 +146,9 @@ double aperture_reference(double rx0, double rx1, double mx0, double mx1, double
 TEST(Transport, AsymmetricMirrorSendsLightOneWayOnly) {
   // A small mirror at the origin sends the lamp's light to the right (x > 0) and nowhere else:
   // a wrong j/i/k order in the transfer would light the receiver on the lamp's side instead.
-  double right = receiver_first_bounce(mirror_scene(0.8, 1.2, -0.3, 0.1, -0.3, 0.3), 64);
-  double left = receiver_first_bounce(mirror_scene(-2.2, -1.8, -0.3, 0.1, -0.3, 0.3), 64);
+  double right = receiver_first_bounce(test::mirror_floor_json(0.8, 1.2, -0.3, 0.1, -0.3, 0.3), 64);
+  double left =
+      receiver_first_bounce(test::mirror_floor_json(-2.2, -1.8, -0.3, 0.1, -0.3, 0.3), 64);
   double expect = aperture_reference(0.8, 1.2, -0.3, 0.1, -0.3, 0.3);
   EXPECT_GT(expect, 0.0);
   EXPECT_NEAR(right, expect, 0.03 * expect);

@@ -93,6 +93,12 @@ void SystemFlags::add(CLI::App& app) {
                      "of its root patch)")
           ->check(CLI::PositiveNumber));
   hierarchy_options.push_back(
+      app.add_option("--mirror-links", hierarchy.mirror_links,
+                     "Hierarchical mesh: what a planar mirror shows a surface without a lobe on "
+                     "links to the mirror images of the elements, refined as the light needs "
+                     "(false: on the links between the roots)")
+          ->capture_default_str());
+  hierarchy_options.push_back(
       app.add_option("--refine-passes", hierarchy.passes,
                      "Hierarchical mesh: refinement passes after the first, each after a solve")
           ->check(CLI::Range(0, 100))

@@ -526,7 +526,8 @@ class FinalGatherer {
   // the rays cast.
   long long read_specular(const Shading& sh, PatchId j, const Vec3& p, const Vec3& dir,
                           const Rgb& w, bool diffuse, Rng& rng, PixelTerms& terms) const {
-    if (diffuse && passes_through(j)) return through_mirror(sh.x, j, p, dir, w, rng, terms);
+    if (diffuse && (passes_through(j) || imaged_by_links(j, sh.i)))
+      return through_mirror(sh.x, j, p, dir, w, rng, terms, imaged(j), true);
     const Rgbf wl = scaled(w, 1.0);
     add_link(j, sh.i, wl, terms);
     if (diffuse) subtract_mirrored_lights(j, sh.i, wl, terms);
@@ -543,28 +544,37 @@ class FinalGatherer {
   }
   // Whether the mirror images gave a diffuse part the lamps' light that mirror j reflects.
   bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
+  // Whether the link S_{j->i} of a hierarchy leaves what mirror j shows i to its image links
+  // (transport/hierarchy.h, eq. H4): the gathers at i then read through j instead.
+  bool imaged_by_links(PatchId j, PatchId i) const {
+    const auto& h = c_.layout.hierarchy;
+    if (!h || h->image_links().empty()) return false;
+    const Eigen::Index link = c_.layout.link_unknown(j, i);
+    const RootSpecular* sp = h->op()->specular();
+    return link >= 0 && sp && sp->links_only[link - c_.layout.num_patches];
+  }
 
   // A sample from x along dir met delta mirror j at p: w s_j times the radiance arriving at p
   // along the mirrored direction, read where that ray meets patch k at z: Le_k whole (no light
-  // point draws that path), unless imaged(j) (the mirror images gave it); the reflected light
-  // B~_k - E~_k, or where z lies near x along the path the second gather there; and the link
-  // S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on a
-  // hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
+  // point draws that path), unless `images` (the mirror images gave it); the reflected light
+  // B~_k - E~_k, or where z lies near x along the path the second gather there (`deeper`); and
+  // the link S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on
+  // a hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
   long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,
-                           Rng& rng, PixelTerms& terms) const {
+                           Rng& rng, PixelTerms& terms, bool images, bool deeper) const {
     const Patch& pj = c_.patches[j];
     const Rgb ws = w * c_.materials[pj.material].specular;
     const Vec3 out = reflect_in_plane(dir, pj.normal);
     const Hit z = c_.caster.intersect_from(p, j, out);
     if (!z.valid() || !z.front) return 1;
     const PatchId k = z.patch;
-    if (c_.patches[k].emitter && !imaged(j)) terms.emission.push_back({k, scaled(ws, 1.0)});
+    if (c_.patches[k].emitter && !images) terms.emission.push_back({k, scaled(ws, 1.0)});
     add_link(k, j, scaled(ws, 1.0), terms);
     const DiffusePoint at = locate(c_, k, z.u, z.v);
     // x unfolded behind the mirror's plane, as far from p as it is: the near share then
     // measures the length of the path x -> p -> z.
     const Vec3 unfolded = p - (p - x).norm() * out;
-    const double near = near_share(unfolded, z.position, at.diameter);
+    const double near = deeper ? near_share(unfolded, z.position, at.diameter) : 0.0;
     long long rays = 1;
     if (near < 1.0) add_reflected(at, scaled(ws, 1.0 - near), terms, o_.diffuse);
     if (near > 0.0) rays += near_gather(z, -out, ws * near, rng, terms);
@@ -793,7 +803,10 @@ class FinalGatherer {
         if (mis > 0.0) terms.emission.push_back({k, scaled(wz, mis)});
       }
       add_reflected(locate(c_, k, z.u, z.v), scaled(wz, 1.0), terms, o_.diffuse);
-      add_link(k, j, scaled(wz, 1.0), terms);
+      if (imaged_by_links(k, j))  // no images drawn at y: the lamps beyond are read too
+        rays += through_mirror(y, k, z.position, dir, wz, rng, terms, false, false);
+      else
+        add_link(k, j, scaled(wz, 1.0), terms);
     }
     return rays;
   }
@@ -817,47 +830,6 @@ class FinalGatherer {
 };
 
 }  // namespace
-
-MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
-                           bool enabled) {
-  MirrorPlanes m;
-  if (!enabled) return m;
-  m.plane_of.assign(patches.size(), -1);
-  std::vector<std::pair<ObjectId, MaterialId>> owner;  // per plane
-  const double close = 1e-9 * std::max(patches.scene_diameter, 1e-300);
-  for (std::size_t p = 0; p < patches.size(); ++p) {
-    const Patch& patch = patches[p];
-    const Material& mat = materials[patch.material];
-    // A bent quad is no plane: its mirror light stays in the links (and MeshDirect gives its
-    // links no row).
-    if (!is_planar_mirror(patch, mat, patches.scene_diameter)) continue;
-    const double offset = patch.normal.dot(patch.centroid);
-    std::size_t q = 0;
-    for (; q < m.planes.size(); ++q)
-      if (owner[q] == std::make_pair(patch.object, patch.material) &&
-          m.planes[q].normal.dot(patch.normal) > 1.0 - 1e-12 &&
-          std::abs(m.planes[q].offset - offset) <= close)
-        break;
-    if (q == m.planes.size()) {
-      m.planes.push_back({patch.normal, offset, patch.centroid, patch.centroid, mat.specular});
-      owner.emplace_back(patch.object, patch.material);
-    }
-    MirrorPlanes::Plane& plane = m.planes[q];
-    for (int k = 0; k < 4; ++k) {
-      plane.lo = plane.lo.cwiseMin(patch.corner[static_cast<std::size_t>(k)]);
-      plane.hi = plane.hi.cwiseMax(patch.corner[static_cast<std::size_t>(k)]);
-    }
-    m.plane_of[p] = static_cast<std::int32_t>(q);
-  }
-  // Grown so that a crossing computed on the plane is not lost to rounding at its edges (the ray
-  // decides whether the mirror is met).
-  const double grow = 1e-6 * patches.scene_diameter;
-  for (auto& plane : m.planes) {
-    plane.lo.array() -= grow;
-    plane.hi.array() += grow;
-  }
-  return m;
-}
 
 long long final_gather_pixel(const GatherContext& c, int x, int y, PixelTerms& terms,
                              const std::uint64_t* shared) {

@@ -9,6 +9,7 @@
 #include "polyrad/render/camera_gather.h"
 #include "polyrad/scene/brdf.h"
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/transport/mirror_planes.h"
 #include "polyrad/world/light_sampling.h"
 
 namespace polyrad::gather_detail {
@@ -65,25 +66,6 @@ class CornerAverages {
   std::vector<std::size_t> start_;
   std::vector<std::pair<PatchId, double>> entries_;
 };
-
-// The scene's planar mirrors for the final gather's mirror images: the patches whose material
-// is a delta lobe, grouped by object, material and plane. A light point p seen in plane q lies,
-// for a point in front of it, at p mirrored through the plane; the segment to that image crosses
-// the plane where the mirror must be met (inside the group's box, then by a ray).
-struct MirrorPlanes {
-  struct Plane {
-    Vec3 normal;    // unit, out of the mirrors' front
-    double offset;  // normal . x on the plane
-    Vec3 lo, hi;    // the box of its patches' corners, grown by a little
-    Rgb specular;   // the mirror's reflectance s
-  };
-  std::vector<Plane> planes;
-  std::vector<std::int32_t> plane_of;  // per patch: its plane, -1 if not a mirror
-  bool empty() const { return planes.empty(); }
-};
-// With enabled false, none (the gather draws no mirror images).
-MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
-                           bool enabled);
 
 // Everything a pixel is gathered from. The light sampler draws the patches of the scene's
 // named lights by area (World::lights()): relighting may give any of them any emission, so the

@@ -44,12 +44,21 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
     d.link_value.assign(static_cast<std::size_t>(rows) * d.objects, {0.0f, 0.0f, 0.0f});
     if (mirrored) d.mirrored.assign(d.value.size(), {0.0f, 0.0f, 0.0f});
   }
-  Field out, links_only, again;
+  // A hierarchy's image links (eq. H4) bring a lamp's light through the mirrors in the same
+  // bounce: that part is the mirrors', not the direct light.
+  const bool images = h && !h->image_links().empty();
+  Field out, links_only, again, imaged;
   for (const auto& [object, o] : index) {
     std::vector<Rgb> unit(static_cast<std::size_t>(b), Rgb::Zero());
     for (std::int64_t l = 0; l < b; ++l)
       if (object_of[l] == object) unit[l] = Rgb::Ones();
-    t.apply(t.emission(unit), out);
+    const Field e = t.emission(unit);
+    t.apply(e, out);
+    if (images) {
+      imaged = Field::Zero(b, 3);
+      h->op()->apply_images(e.data(), imaged.data(), 3);
+      out.topRows(b) -= imaged;
+    }
     for (std::int64_t l = 0; l < b; ++l)
       d.value[static_cast<std::size_t>(l * d.objects + o)] = row_of(out, l);
     // The mirrors' links, and for the bounce after T applied to them alone.
@@ -62,6 +71,7 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
     }
     if (d.mirrored.empty()) continue;
     t.apply(links_only, again);
+    if (images) again.topRows(b) += imaged;
     for (std::int64_t l = 0; l < b; ++l)
       d.mirrored[static_cast<std::size_t>(l * d.objects + o)] = row_of(again, l);
   }

@@ -257,6 +257,7 @@ void HierarchyBuilder::run() {
   make_roots();
   first_radiosities();
   judge_albedos();
+  find_mirror_planes();
   first_pass();
   for (int p = 1; p <= o_.passes; ++p)
     if (!later_pass(p)) break;
@@ -354,6 +355,8 @@ void HierarchyBuilder::first_pass() {
   HierarchyPass pass;
   const Stopwatch t0;
   std::vector<Candidate> candidates = facing_root_pairs();
+  std::vector<Candidate> mirrored = mirrored_root_pairs();
+  candidates.insert(candidates.end(), mirrored.begin(), mirrored.end());
   pass.oracle_seconds += t0.seconds();  // finding the candidates is the oracle's too
   refine(std::move(candidates), pass);
   link_form_factors(pass);
@@ -417,8 +420,8 @@ bool HierarchyBuilder::later_pass(int p) {
   split_all(to_split, next);
   next.oracle_seconds += oracle_seconds_since(t0, exposure0);  // refine adds its own
   for (const auto& sl : split_links)
-    for (int c = 0; c < 4; ++c)
-      again.push_back({el_[sl.element].first_child + c, sl.other, -1.0f, sl.visibility});
+    split_pair({sl.element, sl.other, -1.0f, sl.visibility, sl.mirror}, sl.element, sl.visibility,
+               again);
   refine(std::move(again), next);
   link_form_factors(next);
   close_pass(next, p);
@@ -456,9 +459,9 @@ void HierarchyBuilder::judge_links_again(std::vector<Candidate>& again,
       if (v == kKeep)
         chunk[kept++] = l;
       else if (v == kAgain)
-        again.push_back({l.a, l.b, l.m});
+        again.push_back({l.a, l.b, l.m, LinkVisibility::kUntested, l.mirror()});
       else
-        split_links.push_back({v, v == l.a ? l.b : l.a, l.visibility});
+        split_links.push_back({v, v == l.a ? l.b : l.a, l.visibility, l.mirror()});
     }
     chunk.resize(kept);
     chunk.shrink_to_fit();  // one chunk's copy at a time; the slack was 5 MB on the mirror cube
@@ -475,6 +478,7 @@ void HierarchyBuilder::close_pass(HierarchyPass& pass, int p) {
   if (p == o_.passes) publish_links();
   attach_specular();
   pass.links = link_count();
+  h_.stats_.image_links = image_link_count();
   pass.elements = static_cast<long long>(el_.size());
   pass.leaves = h_.num_leaves();
   if (p < o_.passes) solve(pass);
@@ -488,11 +492,18 @@ void HierarchyBuilder::publish_links() {
   // is built: the pairs' reserved pages become resident only as they are filled, so the kept
   // links (19 MB on the mirror cube) shrink as they grow (5 MB). Freed only at the end, both
   // beside the operator were the build's peak (72.3 MiB against 68.8 at make_operator).
+  std::vector<ImageLink> images;
   for (auto& chunk : links_) {
-    for (const KeptLink& l : chunk) pairs.push_back({l.a, l.b, l.m});
+    for (const KeptLink& l : chunk) {
+      if (l.mirror() >= 0)
+        images.push_back({{l.a, l.b, l.m}, l.mirror()});
+      else
+        pairs.push_back({l.a, l.b, l.m});
+    }
     std::vector<KeptLink>().swap(chunk);
   }
   h_.links_.swap(pairs);
+  h_.image_links_.swap(images);
   LinkChunks().swap(links_);
 }
 
@@ -503,7 +514,8 @@ void HierarchyBuilder::attach_specular() {
   h_.root_ff_ = root_form_factors(h_, materials_, [&](const LinkVisitor& visit) {
     for (const LinkedPair& l : h_.links_) visit(l);  // published (then links_ is empty)
     for (const auto& chunk : links_)
-      for (const KeptLink& l : chunk) visit({l.a, l.b, l.m});
+      for (const KeptLink& l : chunk)
+        if (l.mirror() < 0) visit({l.a, l.b, l.m});
   });
   st.root_form_factor_seconds += watch.lap();
   st.root_form_factors = h_.root_ff_.f.nnz();

@@ -1,8 +1,9 @@
 // The builder of an element hierarchy (hierarchy.h), internal to it: the links as the oracle
 // measures and keeps them between passes, and the HierarchyBuilder whose passes grow the trees,
 // link them and lay out the operator. Implemented in hierarchy.cpp (the trees and the passes),
-// hierarchy_refine.cpp (the oracle and the links' form factors) and hierarchy_make_operator.cpp
-// (the operator's layout, link rows and energy guard).
+// hierarchy_refine.cpp (the oracle and the links' form factors), hierarchy_images.cpp (the image
+// links through planar mirrors, eq. H4) and hierarchy_make_operator.cpp (the operator's layout,
+// link rows and energy guard).
 // Not installed: the public interface is include/polyrad/transport/hierarchy.h.
 #pragma once
 
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/util/sampling.h"
 #include "polyrad/util/timer.h"
 
 namespace polyrad {
@@ -34,6 +36,8 @@ struct ElementLink {
   // A partly hidden pair's largest unoccluded point values (fa, fb are then weighed by each
   // point's visible fraction).
   float fmax_a = 0.0f, fmax_b = 0.0f;
+  // An image link's mirror plane (b seen in it from a, a from b), -1 for a direct link.
+  std::int32_t mirror = -1;
 };
 
 // A link as the builder holds it between passes: each side's point values as 8-bit fractions
@@ -53,13 +57,16 @@ struct KeptLink {
   float scale_a = 0.0f, scale_b = 0.0f;
   LinkVisibility visibility = LinkVisibility::kUntested;
   std::array<std::uint8_t, kOraclePoints> qa{}, qb{};
+  std::uint8_t plane = 0;  // an image link's mirror plane + 1 (kMaxMirrorPlanes), 0 direct
 
+  std::int32_t mirror() const { return static_cast<std::int32_t>(plane) - 1; }
   static KeptLink keep(const ElementLink& l) {
     KeptLink k;
     k.a = l.a;
     k.b = l.b;
     k.m = l.m;
     k.visibility = l.visibility;
+    k.plane = static_cast<std::uint8_t>(l.mirror + 1);
     const bool partial = l.visibility == LinkVisibility::kPartial;
     k.scale_a = scale_of(partial ? l.fmax_a : *std::max_element(l.fa.begin(), l.fa.end()));
     k.scale_b = scale_of(partial ? l.fmax_b : *std::max_element(l.fb.begin(), l.fb.end()));
@@ -73,6 +80,7 @@ struct KeptLink {
     l.b = b;
     l.m = m;
     l.visibility = visibility;
+    l.mirror = mirror();
     const bool partial = visibility == LinkVisibility::kPartial;
     l.fmax_a = partial ? scale_a : 0.0f;
     l.fmax_b = partial ? scale_b : 0.0f;
@@ -122,6 +130,39 @@ inline bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) 
   return false;
 }
 
+// A convex polygon of at most 12 corners on the stack (an element has 4; a clip adds 1 a plane;
+// two quads' intersection has 8).
+struct SmallPolygon {
+  std::array<Vec3, 12> v;
+  int n = 0;
+  SmallPolygon() = default;
+  explicit SmallPolygon(const Patch& p) : n(p.corners) {
+    for (int k = 0; k < p.corners; ++k) v[k] = p.corner[k];
+  }
+};
+
+// The part of polygon p in front of the plane through `origin` with normal `normal`.
+inline void clip_front(const SmallPolygon& p, const Vec3& origin, const Vec3& normal,
+                       SmallPolygon& out) {
+  out.n = 0;
+  for (int k = 0; k < p.n; ++k) {
+    const Vec3& a = p.v[k];
+    const Vec3& b = p.v[(k + 1) % p.n];
+    const double da = (a - origin).dot(normal), db = (b - origin).dot(normal);
+    if (da >= 0.0) out.v[out.n++] = a;
+    if ((da >= 0.0) != (db >= 0.0)) out.v[out.n++] = a + (da / (da - db)) * (b - a);
+  }
+}
+
+// Eq. 5, unoccluded, from r's oracle points (see ElementLink) to the polygon s, of normal n_s
+// through c_s, clipped to r's front.
+void point_values(const Patch& r, const SmallPolygon& s, const Vec3& n_s, const Vec3& c_s,
+                  double eps, std::array<float, kOraclePoints>& f);
+// The oracle's point x of r (k < kOraclePoints).
+inline Vec3 oracle_point(const Patch& r, int k) {
+  return k < r.corners ? Vec3(r.corner[k] + 0.01 * (r.centroid - r.corner[k])) : r.centroid;
+}
+
 // Whether none of e lies inside other geometry (its exposed area is all of it).
 inline bool wholly_exposed(const Element& e) { return e.exposed >= e.shape.area * (1.0 - 1e-9); }
 
@@ -163,6 +204,7 @@ class HierarchyBuilder {
     // What rays found between the pair's ancestors: the parts of a wholly visible pair are
     // taken as wholly visible too (Hanrahan et al.'s inheritance), without casting again.
     LinkVisibility visibility = LinkVisibility::kUntested;
+    std::int32_t mirror = -1;  // an image link's plane (ElementLink::mirror)
   };
   struct Outcome {
     Decision decision = kNone;
@@ -174,7 +216,12 @@ class HierarchyBuilder {
   struct Split {
     std::int32_t element, other;
     LinkVisibility visibility;
+    std::int32_t mirror = -1;
   };
+  // The candidates a decided split of pair c makes: each child of the split end with the other
+  // end; for an element seen in a mirror by itself (c.a == c.b), each pair of its children once.
+  void split_pair(const Candidate& c, std::int32_t split_end, LinkVisibility v,
+                  std::vector<Candidate>& out) const;
 
   bool splittable(std::int32_t e) const {
     return 0.5 * hierarchy_detail::longest_edge(el_[e].shape) >=
@@ -200,6 +247,35 @@ class HierarchyBuilder {
   }
   // Point form factors of a pair (false: the pair does not face).
   bool point_form_factors(std::int32_t a, std::int32_t b, ElementLink& l) const;
+  // The same for b seen from a in mirror plane q and a from b (false: the images do not face).
+  bool image_point_form_factors(std::int32_t a, std::int32_t b, std::int32_t q,
+                                ElementLink& l) const;
+  // The exact unoccluded form factor from point x (normal n) to the image of polygon s (of
+  // normal n_s, in front of plane q) seen through the plane's patches.
+  double image_point_form_factor(const Vec3& x, const Vec3& n,
+                                 const hierarchy_detail::SmallPolygon& s, const Vec3& n_s,
+                                 std::int32_t q) const;
+  // The etendue over pi of an image link: A_x F_{x y'} on a Gauss rule over x, each point's
+  // exact form factor through the mirror times, unless the pair is wholly visible, the share of
+  // its rays to y that nothing hides.
+  double image_pair_form_factor(std::int32_t x, std::int32_t y, std::int32_t q, LinkVisibility v,
+                                long long* rays) const;
+  // Whether the segment from x on a to y on b is open (for an image link: through its mirror;
+  // kOutside where the segment to y's image misses the mirror's patches, which the form factors
+  // through them leave out exactly).
+  enum class Path { kOpen, kBlocked, kOutside };
+  Path path_between(const ElementLink& l, const Vec3& x, const Patch& pa, const Vec3& y,
+                    const Patch& pb, long long* rays) const;
+  // Whether point p of mirror plane q lies on its outline.
+  bool on_outline(const Vec3& p, std::int32_t q) const;
+  // The root of mirror plane q under its point p, -1 for none.
+  std::int32_t plane_root_at(const Vec3& p, std::int32_t q) const;
+  // The root of plane q that the path between the centroids of a and b crosses (the nearest
+  // root of the plane where it crosses none).
+  std::int32_t crossing_root(std::int32_t a, std::int32_t b, std::int32_t q) const;
+  // Whether receiver r takes light along an image link (no lobe: one with a lobe takes it on
+  // its specular links).
+  bool takes_images(std::int32_t r) const { return !root_lobe_[el_[r].root]; }
   // Element e's exposure: its fraction A'_e / A_e, with its grid where it has one.
   PatchExposure exposure_of(std::int32_t e) const;
   // Casts the pair's visibility rays; a partly hidden pair's point values are weighed by their
@@ -212,13 +288,17 @@ class HierarchyBuilder {
   // and a wholly visible verdict is final for the pair (its links keep it, its children inherit
   // it).
   int probe_rays(std::int32_t a, std::int32_t b) const;
-  // The visible fractions that weigh the point values f of end `which` of the pair a, b (0: a's,
+  // The visible fractions that weigh the point values f of end `which` of link l (0: a's,
   // toward b; 1: b's, toward a), exposure_to the other end's.
-  void weigh_by_visibility(std::int32_t a, std::int32_t b, int which,
-                           const PatchExposure& exposure_to, std::array<float, kOraclePoints>& f,
-                           long long* rays) const;
+  void weigh_by_visibility(const ElementLink& l, int which, const PatchExposure& exposure_to,
+                           std::array<float, kOraclePoints>& f, long long* rays) const;
   Outcome judge(const Candidate& c) const;
   std::uint64_t pair_key(std::int32_t a, std::int32_t b) const;
+  // The key of a link's random streams: pair_key, mixed with the plane of an image link.
+  std::uint64_t link_key(std::int32_t a, std::int32_t b, std::int32_t mirror) const {
+    const std::uint64_t k = pair_key(a, b);
+    return mirror < 0 ? k : mix64(k ^ (0x6d6972726f72ull + static_cast<std::uint64_t>(mirror)));
+  }
   void split(std::int32_t e);
   void split_all(std::vector<std::int32_t>& elements, HierarchyPass& pass);
   // Judges the candidates, splits where the oracle asks and judges the children, until each pair
@@ -246,8 +326,9 @@ class HierarchyBuilder {
   // Per node: the box (u0, v0, u1, v1) of its leaves' centroids in the root's parameters, about
   // the node's own centroid.
   using LeafBoxes = std::vector<std::array<double, 4>>;
+  // The direct links' rows (images false) or the image links' (op.images_, with their planes).
   void fill_link_rows(HierarchicalOperator& op, const std::vector<std::int32_t>& node_of,
-                      const LeafBoxes& boxes) const;
+                      const LeafBoxes& boxes, bool images) const;
   Vec2 slope_of(std::int32_t r, const std::array<float, kOraclePoints>& points, LinkVisibility v,
                 double mean) const;
   LeafBoxes box_leaf_centroids(const HierarchicalOperator& op) const;
@@ -274,6 +355,11 @@ class HierarchyBuilder {
   void judge_albedos();
   void first_pass();
   std::vector<Candidate> facing_root_pairs();
+  // The image links' candidates of pass 0: pairs of roots that see each other in a mirror plane
+  // (hierarchy_images.cpp).
+  void find_mirror_planes();
+  void outline_mirror_planes();
+  std::vector<Candidate> mirrored_root_pairs();
   void bury_unlinked_roots();
   // Pass p >= 1; false where the last solve left no link to judge again (the passes end).
   bool later_pass(int p);
@@ -309,9 +395,15 @@ class HierarchyBuilder {
   using LinkChunks = std::vector<std::vector<KeptLink>>;
   LinkChunks links_;    // the links so far
   LinkChunks pending_;  // judged to link, form factor still to compute
+  std::int64_t image_link_count() const {
+    auto n = static_cast<std::int64_t>(h_.image_links_.size());
+    for (const auto& chunk : links_)
+      for (const auto& l : chunk) n += l.mirror() >= 0 ? 1 : 0;
+    return n;
+  }
   std::int64_t link_count() const {
     // Before publish_links the hierarchy holds none of them, after it the builder none.
-    auto n = static_cast<std::int64_t>(h_.links_.size());
+    auto n = static_cast<std::int64_t>(h_.links_.size() + h_.image_links_.size());
     for (const auto& chunk : links_) n += static_cast<std::int64_t>(chunk.size());
     return n;
   }
@@ -323,6 +415,11 @@ class HierarchyBuilder {
   std::vector<std::int32_t> node_element_;  // the operator's node -> element
   double b_ref_ = 0.0;
   bool lobes_ = false;  // some root has a lobe and the specular links are on
+  std::vector<char> root_lobe_;  // per root: its material has a lobe (and lobes_)
+  // Per mirror plane: its patches and their roots; and its outline, the convex polygons its
+  // patches cover (one where they tile a convex polygon, the common case, else the patches).
+  std::vector<std::vector<hierarchy_detail::SmallPolygon>> plane_patches_, plane_outline_;
+  std::vector<std::vector<std::int32_t>> plane_roots_;
   bool transfer_done_ = false;
   // The specular links of the last solve and their values, for the oracle (specular_toward).
   std::vector<Link> seen_links_;

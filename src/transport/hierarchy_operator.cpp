@@ -72,6 +72,34 @@ void gather_rows(const Csr<std::array<float, 5>>& links, const double* b, Eigen:
   }
 }
 
+// The image links' rows [first, last) added to h (eq. H4): as gather_rows, each entry's source
+// seen in its mirror plane, so times the plane's colour s_q, and shining with B_s plus the link
+// it sends toward the mirror root its path crosses (link_of, with the links' values s; both may
+// be null), as receive_specular adds them to the direct links.
+void gather_images(const Csr<std::array<float, 5>>& images, const std::vector<std::uint8_t>& plane,
+                   const std::vector<Eigen::Array3f>& colour, const std::int32_t* link_of,
+                   const double* s, const double* b, Eigen::Index width, int channel,
+                   std::int32_t first, std::int32_t last, double* h) {
+  if (images.start.empty()) return;
+  for (std::int32_t r = first; r < last; ++r) {
+    double* y = h + 3 * width * r;
+    for (auto k = images.start[r]; k < images.start[r + 1]; ++k) {
+      const auto& v = images.value[k];
+      const auto& colour_k = colour[plane[k]];
+      const double* x = b + 3 * width * static_cast<Eigen::Index>(images.column[k]);
+      const std::int32_t l = link_of && s ? link_of[k] : -1;
+      const double* sl = l >= 0 ? s + width * static_cast<Eigen::Index>(l) : nullptr;
+      for (Eigen::Index c = 0; c < width; ++c) {
+        const double t = channel >= 0 ? colour_k[channel] : colour_k[c % 3];
+        const double m = t * (sl ? x[c] + sl[c] : x[c]);
+        y[c] += v[0] * m + t * (v[3] * x[width + c] + v[4] * x[2 * width + c]);
+        y[width + c] += v[1] * m;
+        y[2 * width + c] += v[2] * m;
+      }
+    }
+  }
+}
+
 // Children take their ancestors' linear functions at their own centroids (pre-order: the parent
 // is complete first); the slopes pass on unchanged, as they are in the root's parameters.
 void push_tree(const std::vector<std::int32_t>& parent,
@@ -100,6 +128,7 @@ std::size_t RootSpecular::bytes() const {
          reflector.size() * sizeof(std::int32_t) + pair_start.size() * sizeof(std::int64_t) +
          pair_source.size() * sizeof(std::int32_t) + pair_f.size() * sizeof(float) +
          pair_link.size() * sizeof(std::int64_t) + pair_reflected.size() * sizeof(float) +
+         links_only.size() + image_link.size() * sizeof(std::int32_t) +
          entry_start.size() * sizeof(std::int64_t) + entry_pair.size() * sizeof(std::int32_t) +
          rows.bytes() + receive_start.size() * sizeof(std::int64_t) +
          receive_entry.size() * sizeof(std::int32_t);
@@ -174,6 +203,7 @@ void HierarchicalOperator::specular_rows(std::int64_t x, const double* b, const 
   for (auto l = sp.link_start[i]; l < sp.link_start[i + 1]; ++l) {
     double* y = out + width * (l - sp.link_start[i]);
     std::fill(y, y + width, 0.0);
+    if (sp.links_only[l]) continue;  // the image links stand for it (eq. H4)
     sp.rows.accumulate_row(l, lin, width, y);
     const auto& colour = sp.colour[l];
     if (channel >= 0) {
@@ -218,8 +248,11 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
               tree_start_[k + 1], b.data());
   constexpr std::int32_t kRows = 256;
 #pragma omp parallel for schedule(dynamic, 1)
-  for (std::int32_t r0 = 0; r0 < n; r0 += kRows)
+  for (std::int32_t r0 = 0; r0 < n; r0 += kRows) {
     gather_rows(links_, b.data(), width, r0, std::min(n, r0 + kRows), h.data());
+    gather_images(images_, image_plane_, plane_colour_, image_entry_links(), in + width * leaves(),
+                  b.data(), width, channel, r0, std::min(n, r0 + kRows), h.data());
+  }
   const auto leaves_count = static_cast<std::int32_t>(leaves());
   const double* s = in + width * leaves_count;  // the specular links, after the leaves
   // Links that carry nothing (T applied to an emission: the mesh's direct light, a series' first
@@ -252,6 +285,33 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
     for (std::int64_t x = 0; x < reflectors; ++x)
       specular_rows(x, b.data(), s, width, channel, lin.data(),
                     out + width * (leaves_count + specular_->link_start[specular_->reflector[x]]));
+  }
+}
+
+void HierarchicalOperator::apply_images(const double* in, double* out, Eigen::Index width) const {
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+  const auto n = static_cast<std::int32_t>(nodes());
+  const auto leaves_count = static_cast<std::int32_t>(leaves());
+  BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(n) * width);
+  std::vector<double>& b = buffers.b();
+  std::vector<double>& h = buffers.h();
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int32_t k = 0; k < trees; ++k)
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
+              tree_start_[k + 1], b.data());
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int32_t k = 0; k < trees; ++k) {
+    std::fill(h.data() + 3 * width * tree_start_[k], h.data() + 3 * width * tree_start_[k + 1],
+              0.0);
+    gather_images(images_, image_plane_, plane_colour_, image_entry_links(),
+                  in + width * leaves_count, b.data(), width, -1, tree_start_[k],
+                  tree_start_[k + 1], h.data());
+    push_tree(parent_, centroid_, width, tree_start_[k], tree_start_[k + 1], h.data());
+  }
+#pragma omp parallel for schedule(static)
+  for (std::int32_t l = 0; l < leaves_count; ++l) {
+    const double* x = h.data() + 3 * width * leaf_node_[l];
+    for (Eigen::Index c = 0; c < width; ++c) out[width * l + c] = rho_[l][c % 3] * x[c];
   }
 }
 
@@ -302,8 +362,9 @@ void HierarchicalOperator::gauss_seidel_sweep(const Field& e, Field& u) const {
 }
 
 // Trees [first, last) of a sweep, inside its parallel region: each gathers from the values
-// every tree had when the wave began (no link joins a tree to itself, so a tree never reads its
-// own), pushes and reflects; only then do they pull their new values.
+// every tree had when the wave began (no direct link joins a tree to itself; an image link that
+// does reads the tree as the wave found it), pushes and reflects; only then do they pull their
+// new values.
 void HierarchicalOperator::sweep_wave(std::int32_t first, std::int32_t last, const Field& e,
                                       Field& u, double* b, double* h) const {
   const Eigen::Index width = 3;
@@ -312,6 +373,8 @@ void HierarchicalOperator::sweep_wave(std::int32_t first, std::int32_t last, con
   for (std::int32_t k = first; k < last; ++k) {
     const std::int32_t n0 = tree_start_[k], n1 = tree_start_[k + 1];
     gather_rows(links_, b, width, n0, n1, h);
+    gather_images(images_, image_plane_, plane_colour_, image_entry_links(), s, b, width, -1, n0,
+                  n1, h);
     if (specular_) receive_specular(s, width, k, k + 1, h);
     push_tree(parent_, centroid_, width, n0, n1, h);
     for (std::int32_t m = n0; m < n1; ++m) {
@@ -368,24 +431,28 @@ void HierarchicalOperator::sweep_reflectors(const Field& e, Field& u, const doub
   }
 }
 
+Eigen::Array3d HierarchicalOperator::entry_albedo(std::int32_t t, std::int64_t entry,
+                                                  const Eigen::Array3d& rho_t) const {
+  if (!specular_) return rho_t;
+  const RootSpecular& sp = *specular_;
+  const auto it = std::lower_bound(sp.reflector.begin(), sp.reflector.end(), t);
+  if (it == sp.reflector.end() || *it != t) return rho_t;
+  const auto x = static_cast<std::int64_t>(it - sp.reflector.begin());
+  const std::int64_t q = sp.entry_pair[sp.entry_start[x] + entry - links_.start[tree_start_[t]]];
+  if (q < 0) return rho_t;
+  return rho_t +
+         sp.colour[sp.link_start[t]].cast<double>() * sp.pair_reflected[sp.pair_start[x] + q];
+}
+
 std::vector<double> HierarchicalOperator::column_sums(bool with_guard, bool reflectance) const {
   // A reflector's receiving nodes count d + s sum_k R_jik per source root j (eq. H3 (b)).
-  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
-  std::vector<std::int64_t> reflector_of(trees, -1);
-  if (specular_)
-    for (std::int64_t x = 0; x < static_cast<std::int64_t>(specular_->reflector.size()); ++x)
-      reflector_of[specular_->reflector[x]] = x;
   const std::vector<Eigen::Array3d> rho = tree_reflectance();
-  std::vector<double> sums = column_sums_by([&](std::int32_t t, std::int64_t entry) {
-    if (!reflectance) return Eigen::Array3d(Eigen::Array3d::Ones());
-    const std::int64_t x = reflector_of[t];
-    if (x < 0) return rho[t];
-    const std::int64_t q =
-        specular_->entry_pair[specular_->entry_start[x] + entry - links_.start[tree_start_[t]]];
-    if (q < 0) return rho[t];
-    return Eigen::Array3d(rho[t] + specular_->colour[specular_->link_start[t]].cast<double>() *
-                                       specular_->pair_reflected[specular_->pair_start[x] + q]);
-  });
+  std::vector<double> sums = column_sums_by(
+      [&](std::int32_t t, std::int64_t entry) {
+        if (!reflectance) return Eigen::Array3d(Eigen::Array3d::Ones());
+        return entry_albedo(t, entry, rho[t]);
+      },
+      reflectance);
   if (with_guard)
     for (std::size_t l = 0; l < sums.size(); ++l) sums[l] *= guard_[l];
   return sums;
@@ -405,7 +472,7 @@ std::vector<Eigen::Array3d> HierarchicalOperator::tree_reflectance() const {
 }
 
 std::vector<double> HierarchicalOperator::column_sums_by(
-    const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo) const {
+    const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo, bool images) const {
   // The flux a unit of flux at leaf l sends along link r <- s, s above l (l included), is
   // rho_r (F_sr + g_sr . (y_l - y_s)) with g_sr = (A'_s / A'_r) c_rs: per node s, the sums
   // K_s = sum rho_r A'_r F_rs / A'_s and their slopes, then for each leaf the chain of its nodes.
@@ -426,6 +493,21 @@ std::vector<double> HierarchicalOperator::column_sums_by(
       }
     }
   }
+  // The image links (eq. H4), each weighed by its receiver's reflectance and its plane's colour.
+  if (images && !images_.start.empty()) {
+    const std::vector<Eigen::Array3d> rho = tree_reflectance();
+    for (std::int32_t t = 0; t < trees; ++t)
+      for (std::int32_t r = tree_start_[t]; r < tree_start_[t + 1]; ++r)
+        for (auto e = images_.start[r]; e < images_.start[r + 1]; ++e) {
+          const std::int32_t s = images_.column[e];
+          if (!(exposed_[s] > 0.0)) continue;
+          const Eigen::Array3d a = rho[t] * plane_colour_[image_plane_[e]].cast<double>();
+          const double w = exposed_[r] / exposed_[s];
+          k[s] += a * (w * images_.value[e][0]);
+          ku[s] += a * (w * images_.value[e][3]);
+          kv[s] += a * (w * images_.value[e][4]);
+        }
+  }
   std::vector<double> sums(leaves());
   for (std::int32_t l = 0; l < static_cast<std::int32_t>(leaves()); ++l) {
     const std::int32_t leaf = leaf_node_[l];
@@ -439,11 +521,13 @@ std::vector<double> HierarchicalOperator::column_sums_by(
 }
 
 std::size_t HierarchicalOperator::bytes() const {
-  return links_.bytes() + parent_.size() * sizeof(std::int32_t) + share_.size() * sizeof(float) +
-         node_leaf_.size() * sizeof(std::int32_t) + leaf_node_.size() * sizeof(std::int32_t) +
-         tree_start_.size() * sizeof(std::int32_t) + rho_.size() * sizeof(Eigen::Array3f) +
-         guard_.size() * sizeof(float) + exposed_.size() * sizeof(double) +
-         centroid_.size() * sizeof(centroid_[0]) + (specular_ ? specular_->bytes() : 0);
+  return links_.bytes() + images_.bytes() + image_plane_.size() +
+         image_root_.size() * sizeof(std::int32_t) + parent_.size() * sizeof(std::int32_t) +
+         share_.size() * sizeof(float) + node_leaf_.size() * sizeof(std::int32_t) +
+         leaf_node_.size() * sizeof(std::int32_t) + tree_start_.size() * sizeof(std::int32_t) +
+         rho_.size() * sizeof(Eigen::Array3f) + guard_.size() * sizeof(float) +
+         exposed_.size() * sizeof(double) + centroid_.size() * sizeof(centroid_[0]) +
+         (specular_ ? specular_->bytes() : 0);
 }
 
 }  // namespace polyrad

@@ -14,24 +14,6 @@ namespace polyrad {
 
 namespace {
 
-// A convex polygon of at most 8 corners on the stack (an element has 4; one clip adds 1).
-struct SmallPolygon {
-  std::array<Vec3, 8> v;
-  int n = 0;
-};
-
-// The part of element p in front of the plane through `origin` with normal `normal`.
-void clip_front(const Patch& p, const Vec3& origin, const Vec3& normal, SmallPolygon& out) {
-  out.n = 0;
-  for (int k = 0; k < p.corners; ++k) {
-    const Vec3& a = p.corner[k];
-    const Vec3& b = p.corner[(k + 1) % p.corners];
-    const double da = (a - origin).dot(normal), db = (b - origin).dot(normal);
-    if (da >= 0.0) out.v[out.n++] = a;
-    if ((da >= 0.0) != (db >= 0.0)) out.v[out.n++] = a + (da / (da - db)) * (b - a);
-  }
-}
-
 // The parameters of the oracle's sample points of an element (as ElementLink's fa, fb).
 Vec2 sample_uv(const Element& e, int k) {
   return k < e.shape.corners ? Vec2(e.uv[k] + 0.01 * (e.centroid_uv - e.uv[k])) : e.centroid_uv;
@@ -50,6 +32,8 @@ using hierarchy_detail::any_corner_in_front;
 using hierarchy_detail::fit_linear;
 using hierarchy_detail::LinearFit;
 using hierarchy_detail::longest_edge;
+using hierarchy_detail::point_values;
+using hierarchy_detail::SmallPolygon;
 using hierarchy_detail::wholly_exposed;
 
 namespace hierarchy_detail {
@@ -84,6 +68,19 @@ LinearFit fit_linear(const Element& r, const std::array<float, kOraclePoints>& f
   for (int k = 0; k < kOraclePoints; ++k)
     fit.miss = std::max(fit.miss, std::abs(f[k] - (fit.mean + fit.slope.dot(d[k]))));
   return fit;
+}
+
+void point_values(const Patch& r, const SmallPolygon& s, const Vec3& n_s, const Vec3& c_s,
+                  double eps, std::array<float, kOraclePoints>& f) {
+  SmallPolygon front;
+  clip_front(s, r.centroid, r.normal, front);
+  for (int k = 0; k < kOraclePoints; ++k) {
+    const Vec3 x = oracle_point(r, k);
+    double v = 0.0;
+    if (front.n >= 3 && (x - c_s).dot(n_s) > eps)
+      v = point_to_polygon_form_factor(x, r.normal, std::span<const Vec3>(front.v.data(), front.n));
+    f[k] = static_cast<float>(v);
+  }
 }
 
 }  // namespace hierarchy_detail
@@ -126,7 +123,15 @@ double HierarchyBuilder::spread(const ElementLink& l, std::int32_t r) const {
 bool HierarchyBuilder::accurate_for(const ElementLink& l, std::int32_t r) const {
   const auto& f = r == l.a ? l.fa : l.fb;
   const std::int32_t source = r == l.a ? l.b : l.a;
-  const Eigen::Array3d b = b_[source] + specular_toward(el_[source].root, el_[r].root);
+  // Along an image link the source shines s_q (B_s + S_{root(s)->m}), m the mirror root its path
+  // crosses (eq. H4), toward a receiver without a lobe only.
+  if (l.mirror >= 0 && !takes_images(r)) return true;
+  const Eigen::Array3d b =
+      l.mirror >= 0
+          ? Eigen::Array3d(
+                h_.mirrors_.planes[l.mirror].specular *
+                (b_[source] + specular_toward(el_[source].root, crossing_root(l.a, l.b, l.mirror))))
+          : Eigen::Array3d(b_[source] + specular_toward(el_[source].root, el_[r].root));
   // A receiver with a lobe passes on what it gathers with d + s, and shines with B_r plus its
   // links' mean S: judged so, a mirror and a wall are refined as two walls would be (the
   // five points of one end miss the kernel's rise along a shared edge that splitting the
@@ -170,23 +175,10 @@ bool HierarchyBuilder::point_form_factors(std::int32_t a, std::int32_t b, Elemen
   const Patch &pa = el_[a].shape, &pb = el_[b].shape;
   const double eps = 1e-9 * std::max(pa.diameter(), pb.diameter());
   if (!any_corner_in_front(pb, pa, eps) || !any_corner_in_front(pa, pb, eps)) return false;
-  // Eq. 5, unoccluded, from r's sample points (see ElementLink) to s clipped to r's front.
-  auto values = [&](const Patch& r, const Patch& s, std::array<float, kOraclePoints>& f) {
-    SmallPolygon front;
-    clip_front(s, r.centroid, r.normal, front);
-    for (int k = 0; k < kOraclePoints; ++k) {
-      const Vec3 x = k < r.corners ? r.corner[k] + 0.01 * (r.centroid - r.corner[k]) : r.centroid;
-      double v = 0.0;
-      if (front.n >= 3 && (x - s.centroid).dot(s.normal) > eps)
-        v = point_to_polygon_form_factor(x, r.normal,
-                                         std::span<const Vec3>(front.v.data(), front.n));
-      f[k] = static_cast<float>(v);
-    }
-  };
   l.a = a;
   l.b = b;
-  values(pa, pb, l.fa);
-  values(pb, pa, l.fb);
+  point_values(pa, SmallPolygon(pb), pb.normal, pb.centroid, eps, l.fa);
+  point_values(pb, SmallPolygon(pa), pa.normal, pa.centroid, eps, l.fb);
   return true;
 }
 
@@ -222,7 +214,7 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
   const Patch &pa = el_[a].shape, &pb = el_[b].shape;
   const int m = probe_rays(a, b);
   const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(m))));
-  Rng rng(o_.seed, pair_key(a, b));
+  Rng rng(o_.seed, link_key(a, b, l.mirror));
   // On a partly buried element, points inside other geometry are skipped: they see nothing and
   // no one sees them, which is not a shadow (their area is not in A').
   const bool buried_a = !wholly_exposed(el_[a]), buried_b = !wholly_exposed(el_[b]);
@@ -240,48 +232,50 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
     if ((buried_a && !exposure_a.exposed_at(pa, x, caster_)) ||
         (buried_b && !exposure_b.exposed_at(pb, y, caster_)))
       continue;
-    ++*rays;
-    if (caster_.segment_occluded(x, pa, y, pb))
-      ++blocked;
-    else
-      ++open;
+    const Path path = path_between(l, x, pa, y, pb, rays);
+    if (path == Path::kOpen) ++open;
+    if (path == Path::kBlocked) ++blocked;
   }
-  if (open == 0) return LinkVisibility::kHidden;
+  // An image link whose rays all missed the mirror: nothing seen hidden (its form factors
+  // through the mirror's patches are exact).
+  if (open == 0 && (blocked > 0 || l.mirror < 0)) return LinkVisibility::kHidden;
   if (blocked == 0) return LinkVisibility::kVisible;  // (also when every point was buried)
   // Partly hidden: the point values weighed by their visible fractions.
   l.fmax_a = *std::max_element(l.fa.begin(), l.fa.end());
   l.fmax_b = *std::max_element(l.fb.begin(), l.fb.end());
-  weigh_by_visibility(a, b, 0, exposure_b, l.fa, rays);
-  weigh_by_visibility(a, b, 1, exposure_a, l.fb, rays);
+  weigh_by_visibility(l, 0, exposure_b, l.fa, rays);
+  weigh_by_visibility(l, 1, exposure_a, l.fb, rays);
   return LinkVisibility::kPartial;
 }
 
 // Partly hidden: each oracle point's value times its visible fraction, from kPointRays rays
 // to stratified points of the other element, so that the linear function follows a penumbra
 // and the miss measures what it cannot follow.
-void HierarchyBuilder::weigh_by_visibility(std::int32_t a, std::int32_t b, int which,
+void HierarchyBuilder::weigh_by_visibility(const ElementLink& l, int which,
                                            const PatchExposure& exposure_to,
                                            std::array<float, kOraclePoints>& f,
                                            long long* rays) const {
+  const std::int32_t a = l.a, b = l.b;
   const Patch& from = el_[which == 0 ? a : b].shape;
   const Patch& to = el_[which == 0 ? b : a].shape;
   const bool buried_to = !wholly_exposed(el_[which == 0 ? b : a]);
   for (int k = 0; k < kOraclePoints; ++k) {
     if (!(f[k] > 0.0f)) continue;
-    const Vec3 x = k < from.corners ? Vec3(from.corner[k] + 0.01 * (from.centroid - from.corner[k]))
-                                    : from.centroid;
-    Rng point(o_.seed, pair_key(a, b), which * kOraclePoints + k + 1);
+    const Vec3 x = hierarchy_detail::oracle_point(from, k);
+    Rng point(o_.seed, link_key(a, b, l.mirror), which * kOraclePoints + k + 1);
     int seen = 0, cast = 0;
     for (int j = 0; j < kPointRays; ++j) {
       const double u = point.uniform32(), v = point.uniform32();
       double density;
       const Vec3 y = to.sample(Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &density);
       if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
-      ++*rays;
+      const Path path = path_between(l, x, from, y, to, rays);
+      if (path == Path::kOutside) continue;
       ++cast;
-      if (!caster_.segment_occluded(x, from, y, to)) ++seen;
+      if (path == Path::kOpen) ++seen;
     }
-    f[k] *= cast > 0 ? static_cast<float>(seen) / cast : 0.0f;
+    // (An image link's rays that all missed the mirror leave its exact value as it is.)
+    f[k] *= cast > 0 ? static_cast<float>(seen) / cast : (l.mirror >= 0 ? 1.0f : 0.0f);
   }
 }
 
@@ -290,7 +284,8 @@ HierarchyBuilder::Outcome HierarchyBuilder::judge(const Candidate& c) const {
   Outcome out;
   if (!(el_[a].exposed > 0.0) || !(el_[b].exposed > 0.0)) return out;
   ElementLink& l = out.link;
-  if (!point_form_factors(a, b, l)) return out;
+  if (c.mirror >= 0 ? !image_point_form_factors(a, b, c.mirror, l) : !point_form_factors(a, b, l))
+    return out;
   out.decision = kLink;
   if (c.visibility == LinkVisibility::kVisible) {
     l.visibility = c.visibility;
@@ -383,13 +378,8 @@ std::vector<HierarchyBuilder::Candidate> HierarchyBuilder::split_decided(
   for (std::int64_t k = 0; k < count; ++k) {
     const Candidate& c = candidates[k];
     const auto [decision, visibility] = decided[k];
-    if (decision == kSplitA) {
-      for (int i = 0; i < 4; ++i)
-        next.push_back({el_[c.a].first_child + i, c.b, -1.0f, visibility});
-    } else if (decision == kSplitB) {
-      for (int i = 0; i < 4; ++i)
-        next.push_back({c.a, el_[c.b].first_child + i, -1.0f, visibility});
-    }
+    if (decision == kSplitA) split_pair(c, c.a, visibility, next);
+    if (decision == kSplitB) split_pair(c, c.b, visibility, next);
   }
   return next;
 }
@@ -423,10 +413,12 @@ void HierarchyBuilder::link_form_factors(HierarchyPass& pass) {
       }
       const Element& ex = el_[x];
       long long r = 0;
-      const double g = pair_area_form_factor(
-          ex.shape, el_[y].shape, &caster_,
-          open_rules(l.a, l.b, l.visibility) ? open_form_factors : o_.form_factors, pair_key(x, y),
-          &r, exposure_of(x));
+      const double g = l.mirror() >= 0 ? image_pair_form_factor(x, y, l.mirror(), l.visibility, &r)
+                                       : pair_area_form_factor(ex.shape, el_[y].shape, &caster_,
+                                                               open_rules(l.a, l.b, l.visibility)
+                                                                   ? open_form_factors
+                                                                   : o_.form_factors,
+                                                               pair_key(x, y), &r, exposure_of(x));
       rays += r;
       if (x != l.a) l.swap_ends();
       l.m = g > 0.0 && ex.exposed > 0.0 ? static_cast<float>(g / ex.exposed) : 0.0f;

@@ -96,6 +96,17 @@ void add_links(RootSpecular& sp, const PatchSet& roots, const std::vector<Materi
   }
 }
 
+// Eq. H4: a planar mirror's link toward a root without a lobe carries only what the mirror's
+// links bring it where image links carry its leaves' light.
+void mark_links_only(RootSpecular& sp, const PatchSet& roots,
+                     const std::vector<Material>& materials, const MirrorPlanes& mirrors) {
+  sp.links_only.assign(sp.links.size(), 0);
+  if (mirrors.empty()) return;
+  for (std::size_t l = 0; l < sp.links.size(); ++l)
+    sp.links_only[l] = mirrors.plane_of[sp.links[l].from] >= 0 &&
+                       !materials[roots[sp.links[l].to].material].has_lobe();
+}
+
 // The reflectors with links and their pairs (row i of the root form factors).
 void add_pairs(RootSpecular& sp, const FormFactors& ff) {
   const auto count = static_cast<std::int32_t>(sp.link_start.size()) - 1;
@@ -151,7 +162,7 @@ std::int64_t reflector_rows(RootSpecular& sp, std::int64_t x, const FormFactors&
     const double f_ik = f_to[transfer.to[e]];
     if (l < 0 || q < 0 || !(f_ik > 0.0) || !(transfer.fraction[e] > 0.0f)) continue;
     rows[l - first].emplace_back(q, transfer.fraction[e] / f_ik);
-    reflected[q] += transfer.fraction[e];
+    if (!sp.links_only[l]) reflected[q] += transfer.fraction[e];
   }
   for (std::size_t q = 0; q < reflected.size(); ++q)
     sp.pair_reflected[pairs + q] = static_cast<float>(reflected[q]);
@@ -232,8 +243,9 @@ void add_receivers(RootSpecular& sp, const PatchSet& roots, const std::vector<Ma
   sp.receive_start.assign(roots.size(), -1);
   std::vector<std::int32_t> receivers;
   std::int64_t total = 0;
-  for (const Link& l : sp.links) {
-    const PatchId k = l.to;
+  for (std::size_t x = 0; x < sp.links.size(); ++x) {
+    const PatchId k = sp.links[x].to;
+    if (sp.links_only[x]) continue;  // its light is on the image links (eq. H4)
     if (sp.receive_start[k] >= 0 || !(materials[roots[k].material].diffuse.maxCoeff() > 0.0))
       continue;
     sp.receive_start[k] = total;
@@ -245,8 +257,10 @@ void add_receivers(RootSpecular& sp, const PatchSet& roots, const std::vector<Ma
   for (std::int64_t n = 0; n < static_cast<std::int64_t>(receivers.size()); ++n) {
     const std::int32_t k = receivers[n];
     std::int32_t* link = sp.receive_entry.data() + sp.receive_start[k];
-    for (auto e = tree.first_entry(k); e < tree.end_entry(k); ++e)
-      *link++ = static_cast<std::int32_t>(find_link(sp, tree.root_of(tree.column[e]), k));
+    for (auto e = tree.first_entry(k); e < tree.end_entry(k); ++e) {
+      const std::int64_t l = find_link(sp, tree.root_of(tree.column[e]), k);
+      *link++ = static_cast<std::int32_t>(l >= 0 && sp.links_only[l] ? -1 : l);
+    }
   }
 }
 
@@ -258,10 +272,17 @@ RootSpecular build_root_specular(const ElementHierarchy& h, const std::vector<Ma
   const TreeRows tree{op.tree_start_, op.links_.start, op.links_.column};
   RootSpecular sp;
   add_links(sp, h.roots(), materials, ff, transfer);
+  mark_links_only(sp, h.roots(), materials, h.mirrors());
   add_pairs(sp, ff);
   add_rows(sp, ff, transfer);
   add_entry_pairs(sp, tree);
   add_receivers(sp, h.roots(), materials, tree);
+  // Eq. H4: what each image link's source sends toward the mirror root its path crosses.
+  sp.image_link.resize(op.images_.column.size());
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (std::int64_t e = 0; e < static_cast<std::int64_t>(sp.image_link.size()); ++e)
+    sp.image_link[e] = static_cast<std::int32_t>(
+        find_link(sp, tree.root_of(op.images_.column[e]), op.image_root_[e]));
   return sp;
 }
 

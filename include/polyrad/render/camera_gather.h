@@ -38,7 +38,9 @@
 // mirror shows is resolved per sample, not per pair of patches (on a hierarchy, of roots). With
 // kAlways every delta mirror is followed, by the reflector points on it too (none are drawn on
 // imaged mirrors), and the Le met through a mirror the images do not give is read there. Lobe
-// samples, the second gather and the mirror chains read the links whole.
+// samples, the second gather and the mirror chains read the links whole; but on a hierarchy with
+// image links (transport/hierarchy.h, eq. H4) a mirror's link to a root without a lobe no longer
+// carries what the mirror shows, and both gathers at such a root read through the mirror there.
 // With a hierarchical mesh (UnknownLayout::hierarchy) B is read from the leaves under a hit.
 // With IndirectMode::kMesh the diffuse part's first bounce is not gathered: at a hit on unknown
 // l it is read as B_l - E_l - sum_o D(l, o) e_o, l's light beyond what the lights give it

@@ -31,6 +31,7 @@
 
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/scene/brdf.h"
+#include "polyrad/transport/mirror_planes.h"
 #include "polyrad/transport/transport.h"
 
 namespace polyrad {
@@ -66,13 +67,6 @@ struct MeshDirect {
            (column.size() + link_row.size()) * 4;
   }
 };
-
-// A planar mirror patch: a delta lobe on a patch that lies in one plane (to 1e-9 of the scene's
-// size; a bent quad does not). The final gather draws the images of the lamps in these only, so
-// only their links have rows here.
-inline bool is_planar_mirror(const Patch& p, const Material& m, double scene_diameter) {
-  return m.has_lobe() && m.is_delta() && p.bend <= 1e-9 * scene_diameter;
-}
 
 // With materials, the planar mirrors' links too, and with mirrored their bounce after (above).
 // One application of T per emitting object, two with mirrored.

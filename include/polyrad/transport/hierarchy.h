@@ -68,6 +68,15 @@
 // reflector's source end by B + S and its receiving end by d + s. Unknowns: the leaves, then
 // the links.
 //
+// Image links (eq. H4, options.mirror_links; section 12.8): what a planar mirror q shows a
+// receiver without a lobe goes on links between elements r and s seen in q, s at its mirror image
+// through q's outline, refined by the same oracle, so a mirror's light falls where the image of
+// its source does instead of one value per pair of roots. Such a link carries
+// s_q (B_s + S_{root(s)->m}) (m the mirror root its path crosses) toward its ends without a
+// lobe; the root links S_{m->k} toward receivers without a lobe are then left out of T (kept,
+// unfed, for the gathers, which read through those mirrors instead). Form factors exact through
+// the outline; visibility by rays with two segments, via the mirror.
+//
 //   ElementHierarchy h = build_hierarchy(patches, scene.materials, caster, {});
 //   TransportOperator t = hierarchical_transport(h, scene.materials);   // leaves, then links
 //   (h a std::shared_ptr<const ElementHierarchy>: the operator's layout keeps it)
@@ -84,7 +93,9 @@
 // directions, five floats and an index each); one application reads every link twice and each tree
 // three times. Lobes add the uniform mesh's transfer on the roots (2 x samples rays per facing pair
 // into a reflector), 8 bytes per entry of a root link's row and 4 per element link entry of the
-// trees that reflect or receive specular light.
+// trees that reflect or receive specular light. Image links add R^2 / 2 pair tests per mirror
+// plane, a clip and a point form factor per oracle point and per Gauss point (9 a link), 2 rays
+// per visibility ray, and per entry in T 24 bytes plus 9 (its plane, mirror root and link).
 #pragma once
 
 #include <algorithm>
@@ -101,12 +112,17 @@
 #include "polyrad/raycast/ray_caster.h"
 #include "polyrad/scene/brdf.h"
 #include "polyrad/transport/form_factors.h"
+#include "polyrad/transport/mirror_planes.h"
 #include "polyrad/transport/transport.h"
 
 namespace polyrad {
 
 // The sample points of an element at which the oracle evaluates point form factors.
 inline constexpr int kOraclePoints = 5;
+
+// The most mirror planes image links go through (the first ones of mirror_planes; the light of
+// any others stays on the specular links).
+inline constexpr int kMaxMirrorPlanes = 255;
 
 // The link tolerance where none is chosen and no gather reads the solution.
 inline constexpr double kDefaultLinkTolerance = 0.05;
@@ -149,6 +165,10 @@ struct HierarchyOptions {
   // material is reduced to its diffuse part.
   bool specular_links = true;
   SpecularOptions specular;
+  // Image links (eq. H4, above): what a planar mirror shows a receiver without a lobe goes on
+  // links to the mirror images of the sources, refined by the oracle; off, on the specular links
+  // between the roots. Only with specular_links.
+  bool mirror_links = false;
   double tolerance() const { return link_tolerance > 0.0 ? link_tolerance : kDefaultLinkTolerance; }
   // The smallest element under a root whose longest edge is `root_edge` (min_element_size's
   // rule, above).
@@ -180,6 +200,13 @@ struct Element {
 struct LinkedPair {
   std::int32_t a = 0, b = 0;
   float m = 0.0f;
+};
+
+// An image link: b seen from a in mirror plane `plane` (and a from b), F_ab = m the mean over
+// a's exposed points of the point form factor to b's image through the mirror.
+struct ImageLink {
+  LinkedPair pair;
+  std::int32_t plane = 0;
 };
 
 // A point of a root patch located on its leaf.
@@ -221,6 +248,8 @@ struct HierarchyStats {
   // transfer's entries, the root links and their rows' entries.
   double root_form_factor_seconds = 0.0, transfer_seconds = 0.0, specular_link_seconds = 0.0;
   long long transfer_entries = 0, specular_links = 0, specular_row_entries = 0;
+  // Image links (in passes[].links too) and the mirror planes they go through.
+  long long image_links = 0, mirror_planes = 0;
   long long root_form_factors = 0;  // non-zeros of the reflectors' rows
   double lookup_seconds = 0.0;      // the final gather's lookups: corner averages, leaf grids
   double seconds = 0.0;
@@ -260,7 +289,14 @@ struct RootSpecular {
   std::vector<std::int32_t> pair_source;  // j
   std::vector<float> pair_f;              // F_ij, the root form factor
   std::vector<std::int64_t> pair_link;    // the link index of S_{j->i}, -1 if none
-  std::vector<float> pair_reflected;      // sum over i's links k of R_jik (colour excluded)
+  // sum over i's links k of R_jik (colour excluded), the links that read only links left out
+  std::vector<float> pair_reflected;
+  // Per link: 1 for a planar mirror's link toward a root without a lobe, which the image links
+  // stand for (eq. H4): kept for the gathers that read it, but no longer fed or read by T.
+  std::vector<char> links_only;
+  // Per entry of the image links' rows: the link S_{root(s)->m} that the source s sends toward
+  // the mirror root m the entry's path crosses, -1 for none (eq. H4).
+  std::vector<std::int32_t> image_link;
   // For each link entry of the rows of reflector x's tree nodes (in the operator's link rows,
   // from the first node's first entry on), its local pair index: entry_start[x] + offset.
   std::vector<std::int64_t> entry_start;
@@ -293,6 +329,9 @@ class HierarchicalOperator {
   // out = T in (eq. H2, H3), width values per unknown (a Field: 3; a block: 3 C; one channel:
   // 1, then `channel` picks the reflectance). in and out must not alias.
   void apply(const double* in, double* out, Eigen::Index width, int channel = -1) const;
+  // The image links' part of apply (eq. H4), on the leaves alone: out (leaves x width) = what
+  // in's leaves and links send along the image links, reflected by the receiving leaves.
+  void apply_images(const double* in, double* out, Eigen::Index width) const;
   // One Gauss-Seidel sweep, root tree by root tree: each tree gathers from the current values
   // of every other (its own links never reach itself) and the current specular links, then
   // pushes, reflects and pulls again; then the reflectors' link rows in order. The trees go in
@@ -306,9 +345,16 @@ class HierarchicalOperator {
   // d + s sum_k R_jik.
   std::vector<double> column_sums(bool with_guard, bool reflectance = true) const;
   // The same without the guard, each link entry r <- s (tree t, entry e of the link rows)
-  // weighed by albedo(t, e): what the guard bounds (a bound of every channel's reflectance).
+  // weighed by albedo(t, e): what the guard bounds (a bound of every channel's reflectance);
+  // with images, each image link entry weighed by its receiver's reflectance times s_q.
   std::vector<double> column_sums_by(
-      const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo) const;
+      const std::function<Eigen::Array3d(std::int32_t, std::int64_t)>& albedo,
+      bool images = true) const;
+  // What entry `entry` of tree t's link rows counts in a column: rho_t, plus for a reflector's
+  // tree its colour times sum_k R_jik over its links that read the leaves (eq. H3 (b)), j the
+  // entry's source root.
+  Eigen::Array3d entry_albedo(std::int32_t t, std::int64_t entry,
+                              const Eigen::Array3d& rho_t) const;
   // The diffuse reflectance of each tree's leaves, as T applies it.
   std::vector<Eigen::Array3d> tree_reflectance() const;
   std::size_t bytes() const;
@@ -318,6 +364,10 @@ class HierarchicalOperator {
   friend class ElementHierarchy;
   friend RootSpecular build_root_specular(const ElementHierarchy&, const std::vector<Material>&,
                                           const FormFactors&, const SpecularTransfer&);
+  // Per image entry, the link its source sends toward the mirror (RootSpecular::image_link).
+  const std::int32_t* image_entry_links() const {
+    return specular_ && !specular_->image_link.empty() ? specular_->image_link.data() : nullptr;
+  }
   // (a) of eq. H3 into the gathered functions h of the root nodes of trees [first, last).
   void receive_specular(const double* s, Eigen::Index width, std::int32_t first_tree,
                         std::int32_t last_tree, double* h) const;
@@ -345,6 +395,13 @@ class HierarchicalOperator {
   // over its leaves; c_rs = (A'_s / A'_r) g_sr, which weights the source's first moments, so
   // that each leaf of s sends along the link by the form factor at its own place.
   Csr<std::array<float, 5>> links_;
+  // The image links' rows (eq. H4), as links_, each entry's mirror plane in image_plane_, the
+  // root of that plane its path crosses in image_root_, and the planes' colours s_q in
+  // plane_colour_.
+  Csr<std::array<float, 5>> images_;
+  std::vector<std::uint8_t> image_plane_;
+  std::vector<std::int32_t> image_root_;
+  std::vector<Eigen::Array3f> plane_colour_;
   std::vector<std::array<float, 2>> centroid_;  // each node's centroid_uv
 
   // The pulled and gathered values of every node (3 x width doubles each, b and h) that apply()
@@ -367,6 +424,9 @@ class ElementHierarchy {
  public:
   const std::vector<Element>& elements() const { return elements_; }
   const std::vector<LinkedPair>& links() const { return links_; }
+  const std::vector<ImageLink>& image_links() const { return image_links_; }
+  // The mirror planes the image links go through (empty without them).
+  const MirrorPlanes& mirrors() const { return mirrors_; }
   int num_roots() const { return num_roots_; }
   int num_leaves() const { return static_cast<int>(leaf_element_.size()); }
   // Leaf l (unknown l) as a patch: what a caller that indexes unknowns by patch reads (the
@@ -419,6 +479,8 @@ class ElementHierarchy {
   void build_lookup(const PatchSet& roots);
   std::vector<Element> elements_;
   std::vector<LinkedPair> links_;
+  std::vector<ImageLink> image_links_;
+  MirrorPlanes mirrors_;
   std::vector<std::int32_t> leaf_element_;
   const PatchSet* roots_ = nullptr;
   int num_roots_ = 0;

@@ -1,0 +1,62 @@
+// The scene's planar mirrors, grouped into planes: what the final gather's mirror images
+// (render/camera_gather.h) and the hierarchy's image links (transport/hierarchy.h) both see
+// through. A point y in front of plane q is seen from a point x in front of it at its image
+//     y' = y - 2 (n . y - d) n                                  (n the plane's normal, d its
+//     offset)
+// along the segment x -> y', which crosses the plane at
+//     p = x + h_x / (h_x + h_y) (y' - x),   h = n . (.) - d,
+// where the mirror must be met: inside the plane's box, then by a ray from x whose first hit is a
+// patch of the plane (its outline is the union of its patches, and anything in front of it
+// hides it), and from p the segment to y must be open (section 8, the mirror image of a lamp).
+//
+//   MirrorPlanes m = mirror_planes(patches, materials, true);
+//   bool open = m.path_open(caster, patches, q, x, patches[i], y, patches[j]);
+//
+// Cost: one pass over the patches; a path test is two rays.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "polyrad/geometry/mesher.h"
+#include "polyrad/raycast/ray_caster.h"
+#include "polyrad/scene/brdf.h"
+
+namespace polyrad {
+
+// A planar mirror patch: a delta lobe on a patch that lies in one plane (to 1e-9 of the scene's
+// size; a bent quad does not).
+inline bool is_planar_mirror(const Patch& p, const Material& m, double scene_diameter) {
+  return m.has_lobe() && m.is_delta() && p.bend <= 1e-9 * scene_diameter;
+}
+
+// The planar mirror patches, grouped by object, material and plane.
+struct MirrorPlanes {
+  struct Plane {
+    Vec3 normal;    // unit, out of the mirrors' front
+    double offset;  // normal . x on the plane
+    Vec3 lo, hi;    // the box of its patches' corners, grown by a little
+    Rgb specular;   // the mirror's reflectance s
+
+    double height(const Vec3& x) const { return normal.dot(x) - offset; }
+    Vec3 image(const Vec3& x) const { return x - 2.0 * height(x) * normal; }
+    bool in_box(const Vec3& p) const {
+      return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+    }
+  };
+  std::vector<Plane> planes;
+  std::vector<std::int32_t> plane_of;  // per patch: its plane, -1 if not a mirror
+  bool empty() const { return planes.empty(); }
+
+  // Whether y on patch py is seen from x on patch px in plane q (both in front of it): the
+  // crossing in the plane's box, the first hit from x a front face of the plane, and the segment
+  // from there to y open. rays, if given, counts the rays cast.
+  bool path_open(const RayCaster& caster, const PatchSet& patches, std::int32_t q, const Vec3& x,
+                 const Patch& px, const Vec3& y, const Patch& py, long long* rays = nullptr) const;
+};
+
+// With enabled false, none.
+MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
+                           bool enabled);
+
+}  // namespace polyrad

@@ -1,0 +1,66 @@
+// The scene's planar mirrors (mirror_planes.h).
+#include "polyrad/transport/mirror_planes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace polyrad {
+
+bool MirrorPlanes::path_open(const RayCaster& caster, const PatchSet& patches, std::int32_t q,
+                             const Vec3& x, const Patch& px, const Vec3& y, const Patch& py,
+                             long long* rays) const {
+  const Plane& plane = planes[static_cast<std::size_t>(q)];
+  const double hx = plane.height(x), hy = plane.height(y);
+  if (!(hx > 0.0) || !(hy > 0.0)) return false;
+  const Vec3 to = plane.image(y) - x;
+  if (!plane.in_box(x + (hx / (hx + hy)) * to)) return false;
+  const Vec3 d = to.normalized();
+  if (rays) ++*rays;
+  const Hit h = caster.intersect_from(x, px, d);
+  if (!h.valid() || !h.front || plane_of[h.patch] != q) return false;
+  if (rays) ++*rays;
+  return !caster.segment_occluded(h.position, patches[h.patch], y, py);
+}
+
+MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
+                           bool enabled) {
+  MirrorPlanes m;
+  if (!enabled) return m;
+  m.plane_of.assign(patches.size(), -1);
+  std::vector<std::pair<ObjectId, MaterialId>> owner;  // per plane
+  const double close = 1e-9 * std::max(patches.scene_diameter, 1e-300);
+  for (std::size_t p = 0; p < patches.size(); ++p) {
+    const Patch& patch = patches[p];
+    const Material& mat = materials[patch.material];
+    // A bent quad is no plane: its mirror light stays in the links.
+    if (!is_planar_mirror(patch, mat, patches.scene_diameter)) continue;
+    const double offset = patch.normal.dot(patch.centroid);
+    std::size_t q = 0;
+    for (; q < m.planes.size(); ++q)
+      if (owner[q] == std::make_pair(patch.object, patch.material) &&
+          m.planes[q].normal.dot(patch.normal) > 1.0 - 1e-12 &&
+          std::abs(m.planes[q].offset - offset) <= close)
+        break;
+    if (q == m.planes.size()) {
+      m.planes.push_back({patch.normal, offset, patch.centroid, patch.centroid, mat.specular});
+      owner.emplace_back(patch.object, patch.material);
+    }
+    MirrorPlanes::Plane& plane = m.planes[q];
+    for (int k = 0; k < 4; ++k) {
+      plane.lo = plane.lo.cwiseMin(patch.corner[static_cast<std::size_t>(k)]);
+      plane.hi = plane.hi.cwiseMax(patch.corner[static_cast<std::size_t>(k)]);
+    }
+    m.plane_of[p] = static_cast<std::int32_t>(q);
+  }
+  // Grown so that a crossing computed on the plane is not lost to rounding at its edges (the ray
+  // decides whether the mirror is met).
+  const double grow = 1e-6 * patches.scene_diameter;
+  for (auto& plane : m.planes) {
+    plane.lo.array() -= grow;
+    plane.hi.array() += grow;
+  }
+  return m;
+}
+
+}  // namespace polyrad
