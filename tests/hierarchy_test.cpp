@@ -720,14 +720,7 @@ TEST(Hierarchy, SameGaussSeidelSweepOnOneOrTwoThreads) {
   const TransportOperator& t = sys->transport;
   ASSERT_GT(sys->hierarchy->num_roots(), 2 * 128);
   ASSERT_GT(t.num_links(), 1000);
-  auto sweep_on = [&](int threads) {
-    omp_set_num_threads(threads);
-    Field u = t.emission();
-    for (int k = 0; k < 3; ++k) t.gauss_seidel_sweep(t.emission(), u);
-    omp_set_num_threads(omp_get_num_procs());
-    return u;
-  };
-  const Field one = sweep_on(1), two = sweep_on(2);
+  const Field one = test::gauss_seidel_on(t, 1, 3), two = test::gauss_seidel_on(t, 2, 3);
   EXPECT_GT(one.bottomRows(t.num_links()).maxCoeff(), 0.0);  // the links were swept too
   EXPECT_TRUE((one.array() == two.array()).all());
 }

@@ -1,5 +1,6 @@
 #include "test_support.h"
 
+#include <omp.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -119,6 +120,14 @@ std::string closed_box_json(const Vec3& size, double patch_size,
       << "]}" << (f + 1 < faces.size() ? "," : "") << "\n";
   s << "]}\n";
   return s.str();
+}
+
+Field gauss_seidel_on(const TransportOperator& t, int threads, int sweeps) {
+  omp_set_num_threads(threads);
+  Field u = t.emission();
+  for (int k = 0; k < sweeps; ++k) t.gauss_seidel_sweep(t.emission(), u);
+  omp_set_num_threads(omp_get_num_procs());
+  return u;
 }
 
 const char* const kMirrorFloor = R"({

@@ -8,6 +8,7 @@
 
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/scene/scene.h"
+#include "polyrad/transport/transport.h"
 #include "polyrad/util/json.h"
 
 namespace polyrad::test {
@@ -74,6 +75,10 @@ std::string closed_box_json(const Vec3& size, double patch_size, const std::stri
 // right, back (z = sz), front (z = 0).
 std::string closed_box_json(const Vec3& size, double patch_size,
                             const std::vector<std::string>& face_materials, double emission);
+
+// Gauss-Seidel sweeps of t's emission from the emission, on `threads` threads (the team is set
+// back to every processor after).
+Field gauss_seidel_on(const TransportOperator& t, int threads, int sweeps);
 
 // A lamp (emission 1, black, 0.4 x 0.4 at x in [-1.2, -0.8], height 1, facing down) and a
 // receiver (reflectance 0.5, x in [rx0, rx1]) side by side above a mirror floor (reflectance

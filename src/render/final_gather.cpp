@@ -548,7 +548,7 @@ class FinalGatherer {
   // (transport/hierarchy.h, eq. H4): the gathers at i then read through j instead.
   bool imaged_by_links(PatchId j, PatchId i) const {
     const auto& h = c_.layout.hierarchy;
-    if (!h || h->image_links().empty()) return false;
+    if (!h || h->mirrors().empty()) return false;
     const Eigen::Index link = c_.layout.link_unknown(j, i);
     const RootSpecular* sp = h->op()->specular();
     return link >= 0 && sp && sp->links_only[link - c_.layout.num_patches];

@@ -46,7 +46,7 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
   }
   // A hierarchy's image links (eq. H4) bring a lamp's light through the mirrors in the same
   // bounce: that part is the mirrors', not the direct light.
-  const bool images = h && !h->image_links().empty();
+  const bool images = h && !h->mirrors().empty();
   Field out, links_only, again, imaged;
   for (const auto& [object, o] : index) {
     std::vector<Rgb> unit(static_cast<std::size_t>(b), Rgb::Zero());
@@ -71,7 +71,14 @@ MeshDirect mesh_direct(const TransportOperator& t, const PatchSet& patches,
     }
     if (d.mirrored.empty()) continue;
     t.apply(links_only, again);
-    if (images) again.topRows(b) += imaged;
+    if (images) {
+      // The bounce after the mirrors' links, less what their image links carry on (light that
+      // met two mirrors, which the images at the pixel do not draw), plus the lamp's light the
+      // image links bring in one bounce.
+      Field beyond = Field::Zero(b, 3);
+      h->op()->apply_images(links_only.data(), beyond.data(), 3);
+      again.topRows(b) += imaged - beyond;
+    }
     for (std::int64_t l = 0; l < b; ++l)
       d.mirrored[static_cast<std::size_t>(l * d.objects + o)] = row_of(again, l);
   }

@@ -130,10 +130,10 @@ inline bool any_corner_in_front(const Patch& p, const Patch& plane, double eps) 
   return false;
 }
 
-// A convex polygon of at most 12 corners on the stack (an element has 4; a clip adds 1 a plane;
-// two quads' intersection has 8).
+// A convex polygon of at most 24 corners on the stack: an element has 4, a clip adds 1 a plane,
+// and an image cut by a mirror's outline (at most 8 corners, hierarchy_images.cpp) at most 14.
 struct SmallPolygon {
-  std::array<Vec3, 12> v;
+  std::array<Vec3, 24> v;
   int n = 0;
   SmallPolygon() = default;
   explicit SmallPolygon(const Patch& p) : n(p.corners) {
@@ -266,6 +266,12 @@ class HierarchyBuilder {
   enum class Path { kOpen, kBlocked, kOutside };
   Path path_between(const ElementLink& l, const Vec3& x, const Patch& pa, const Vec3& y,
                     const Patch& pb, long long* rays) const;
+  // A point of element `to` seen from x (on element `from`) through link l's mirror, for the
+  // unit-square sample u: uniform over the part of the mirror's outline where to's image shows
+  // from x (so a visibility ray never misses a small mirror); false where none shows. For a
+  // direct link, to.sample(u).
+  bool target_through(const ElementLink& l, std::int32_t from, std::int32_t to, const Vec3& x,
+                      const Vec2& u, Vec3* y) const;
   // Whether point p of mirror plane q lies on its outline.
   bool on_outline(const Vec3& p, std::int32_t q) const;
   // The root of mirror plane q under its point p, -1 for none.

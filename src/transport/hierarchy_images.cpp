@@ -127,7 +127,7 @@ void HierarchyBuilder::outline_mirror_planes() {
     double hull_area = 0.0;
     for (std::size_t i = 0; i < hull.size(); ++i)
       hull_area += 0.5 * cross(Vec2::Zero(), hull[i], hull[(i + 1) % hull.size()]);
-    if (hull.size() < 3 || hull.size() > 12 || std::abs(hull_area - area) > 1e-6 * area) continue;
+    if (hull.size() < 3 || hull.size() > 8 || std::abs(hull_area - area) > 1e-6 * area) continue;
     hierarchy_detail::SmallPolygon outline;
     const double d = h_.mirrors_.planes[q].offset;
     for (const Vec2& h : hull) outline.v[outline.n++] = d * n + h.x() * u + h.y() * v;
@@ -301,12 +301,71 @@ double HierarchyBuilder::image_point_form_factor(const Vec3& x, const Vec3& n,
   return f;
 }
 
+bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, std::int32_t to,
+                                      const Vec3& x, const Vec2& u, Vec3* y) const {
+  using hierarchy_detail::clip_front;
+  using hierarchy_detail::SmallPolygon;
+  const Patch& pt = el_[to].shape;
+  if (l.mirror < 0) {
+    double density;
+    *y = pt.sample(u, &density);
+    return true;
+  }
+  const MirrorPlanes::Plane& plane = h_.mirrors_.planes[l.mirror];
+  const Vec3& n = el_[from].shape.normal;
+  const double hx = plane.height(x);
+  const SmallPolygon s = front_of(pt, plane);
+  if (!(hx > 0.0) || s.n < 3) return false;
+  // The pieces of the outline where to's image shows from x (as image_point_form_factor cuts
+  // them), each a fan of triangles: one drawn by area, a point uniform in it.
+  SmallPolygon projected;
+  projected.n = s.n;
+  for (int k = 0; k < s.n; ++k) {
+    const double hy = std::max(0.0, plane.height(s.v[k]));
+    projected.v[k] = x + (hx / (hx + hy)) * (plane.image(s.v[k]) - x);
+  }
+  std::array<std::array<Vec3, 3>, 48> tri;
+  std::array<double, 48> area{};
+  int count = 0;
+  double total = 0.0;
+  SmallPolygon a, b;
+  for (const auto& m : plane_outline_[l.mirror]) {
+    a = projected;
+    for (int k = 0; k < m.n && a.n >= 3; ++k) {
+      clip_front(a, m.v[k], plane.normal.cross(m.v[(k + 1) % m.n] - m.v[k]), b);
+      std::swap(a, b);
+    }
+    if (a.n < 3) continue;
+    clip_front(a, x, n, b);
+    for (int k = 1; k + 1 < b.n && count < 48; ++k) {
+      tri[count] = {b.v[0], b.v[k], b.v[k + 1]};
+      area[count] = 0.5 * (b.v[k] - b.v[0]).cross(b.v[k + 1] - b.v[0]).norm();
+      total += area[count++];
+    }
+  }
+  if (!(total > 0.0)) return false;
+  double pick = u.x() * total;
+  int t = 0;
+  while (t + 1 < count && pick >= area[t]) pick -= area[t++];
+  const double r1 = std::clamp(pick / area[t], 0.0, 1.0), r2 = u.y();
+  const double su = std::sqrt(r1);
+  const Vec3 p = (1.0 - su) * tri[t][0] + su * (1.0 - r2) * tri[t][1] + su * r2 * tri[t][2];
+  // Along x -> p to the plane of to's image, and back through the mirror.
+  const Vec3 image_normal = pt.normal - 2.0 * pt.normal.dot(plane.normal) * plane.normal;
+  const Vec3 on = plane.image(s.v[0]);
+  const double den = (p - x).dot(image_normal);
+  if (!(std::abs(den) > 0.0)) return false;
+  *y = plane.image(x + ((on - x).dot(image_normal) / den) * (p - x));
+  return true;
+}
+
 // A Gauss rule of kImageGauss x kImageGauss points on x's unit square (Patch::sample, weighed
 // by its area density), at each point the exact form factor to y's image through the mirror's
 // outline; unless the oracle found the pair wholly visible, times the share of rays from the
 // point to stratified points of y, among those through the mirror, that nothing hides
-// (form_factors.visibility_rays of them where the oracle saw a shadow, open_link_rays where it
-// cast none, as the direct links below the roots). A partly buried x: by its exposed fraction.
+// (form_factors.visibility_rays of them where the oracle saw a shadow or between two roots,
+// open_link_rays where it cast none below the roots, as the direct links). A partly buried x: by
+// its exposed fraction.
 double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, std::int32_t q,
                                                 LinkVisibility v, long long* rays) const {
   constexpr int kImageGauss = 3;
@@ -315,8 +374,10 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   const Element &ex = el_[x], &ey = el_[y];
   const hierarchy_detail::SmallPolygon front = front_of(ey.shape, plane);
   const GaussRule& g = gauss_legendre(kImageGauss);
-  const int m = v == LinkVisibility::kPartial ? std::max(1, o_.form_factors.visibility_rays)
-                                              : std::max(1, o_.open_link_rays);
+  const bool roots = ex.parent < 0 && ey.parent < 0;  // rays as the direct links' (below)
+  const int m = v == LinkVisibility::kPartial || roots
+                    ? std::max(1, o_.form_factors.visibility_rays)
+                    : std::max(1, o_.open_link_rays);
   const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(m))));
   Rng rng(o_.seed, link_key(x, y, q));
   ElementLink l;
@@ -337,10 +398,11 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
       if (v != LinkVisibility::kVisible) {
         int seen = 0, cast = 0;
         for (int k = 0; k < m; ++k) {
-          double d;
-          const Vec3 t = ey.shape.sample(
-              Vec2((k % side + rng.uniform32()) / side, (k / side % side + rng.uniform32()) / side),
-              &d);
+          Vec3 t;
+          const double u0 = rng.uniform32(), v0 = rng.uniform32();
+          if (!target_through(l, x, y, p,
+                              Vec2((k % side + u0) / side, (k / side % side + v0) / side), &t))
+            continue;
           const Path path = path_between(l, p, ex.shape, t, ey.shape, rays);
           if (path == Path::kOutside) continue;
           ++cast;

@@ -235,6 +235,14 @@ class HierarchicalOperator::BorrowedBuffers {
   NodeBuffers& buffers_;
 };
 
+void HierarchicalOperator::pull_all(const double* in, Eigen::Index width, double* b) const {
+  const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int32_t k = 0; k < trees; ++k)
+    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
+              tree_start_[k + 1], b);
+}
+
 void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index width,
                                  int channel) const {
   const auto trees = static_cast<std::int32_t>(tree_start_.size()) - 1;
@@ -242,10 +250,7 @@ void HierarchicalOperator::apply(const double* in, double* out, Eigen::Index wid
   BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(n) * width);
   std::vector<double>& b = buffers.b();
   std::vector<double>& h = buffers.h();
-#pragma omp parallel for schedule(dynamic, 16)
-  for (std::int32_t k = 0; k < trees; ++k)
-    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
-              tree_start_[k + 1], b.data());
+  pull_all(in, width, b.data());
   constexpr std::int32_t kRows = 256;
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::int32_t r0 = 0; r0 < n; r0 += kRows) {
@@ -295,10 +300,7 @@ void HierarchicalOperator::apply_images(const double* in, double* out, Eigen::In
   BorrowedBuffers buffers(*this, 3 * static_cast<std::size_t>(n) * width);
   std::vector<double>& b = buffers.b();
   std::vector<double>& h = buffers.h();
-#pragma omp parallel for schedule(dynamic, 16)
-  for (std::int32_t k = 0; k < trees; ++k)
-    pull_tree(parent_, share_, centroid_, node_leaf_, guard_, in, width, tree_start_[k],
-              tree_start_[k + 1], b.data());
+  pull_all(in, width, b.data());
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::int32_t k = 0; k < trees; ++k) {
     std::fill(h.data() + 3 * width * tree_start_[k], h.data() + 3 * width * tree_start_[k + 1],

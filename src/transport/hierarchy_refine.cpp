@@ -227,8 +227,10 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
     double density;
     const Vec3 x =
         pa.sample(Vec2((k % side + u0) / side, ((k / side) % side + v0) / side), &density);
-    const Vec3 y =
-        pb.sample(Vec2((k2 % side + u1) / side, ((k2 / side) % side + v1) / side), &density);
+    Vec3 y;
+    if (!target_through(l, a, b, x, Vec2((k2 % side + u1) / side, ((k2 / side) % side + v1) / side),
+                        &y))
+      continue;
     if ((buried_a && !exposure_a.exposed_at(pa, x, caster_)) ||
         (buried_b && !exposure_b.exposed_at(pb, y, caster_)))
       continue;
@@ -236,9 +238,11 @@ LinkVisibility HierarchyBuilder::probe(ElementLink& l, long long* rays) const {
     if (path == Path::kOpen) ++open;
     if (path == Path::kBlocked) ++blocked;
   }
-  // An image link whose rays all missed the mirror: nothing seen hidden (its form factors
-  // through the mirror's patches are exact).
-  if (open == 0 && (blocked > 0 || l.mirror < 0)) return LinkVisibility::kHidden;
+  // An image link whose rays all missed the mirror's outline has been tested for nothing: it
+  // stays untested, so that its parts are probed again (a wholly visible verdict would be
+  // final for them).
+  if (l.mirror >= 0 && open == 0 && blocked == 0) return LinkVisibility::kUntested;
+  if (open == 0) return LinkVisibility::kHidden;
   if (blocked == 0) return LinkVisibility::kVisible;  // (also when every point was buried)
   // Partly hidden: the point values weighed by their visible fractions.
   l.fmax_a = *std::max_element(l.fa.begin(), l.fa.end());
@@ -266,8 +270,10 @@ void HierarchyBuilder::weigh_by_visibility(const ElementLink& l, int which,
     int seen = 0, cast = 0;
     for (int j = 0; j < kPointRays; ++j) {
       const double u = point.uniform32(), v = point.uniform32();
-      double density;
-      const Vec3 y = to.sample(Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &density);
+      Vec3 y;
+      if (!target_through(l, which == 0 ? a : b, which == 0 ? b : a, x,
+                          Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &y))
+        continue;
       if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
       const Path path = path_between(l, x, from, y, to, rays);
       if (path == Path::kOutside) continue;

@@ -368,6 +368,8 @@ class HierarchicalOperator {
   const std::int32_t* image_entry_links() const {
     return specular_ && !specular_->image_link.empty() ? specular_->image_link.data() : nullptr;
   }
+  // Every tree's pull of in (width values per leaf) into b, on every thread.
+  void pull_all(const double* in, Eigen::Index width, double* b) const;
   // (a) of eq. H3 into the gathered functions h of the root nodes of trees [first, last).
   void receive_specular(const double* s, Eigen::Index width, std::int32_t first_tree,
                         std::int32_t last_tree, double* h) const;
