@@ -596,7 +596,8 @@ TEST(Cli, MirrorLinksAreCountedInTheReport) {
   for (bool on : {true, false}) {
     CommandRun r = run(base + (on ? " --mirror-links true" : ""));
     ASSERT_EQ(r.code, 0) << r.err;
-    const JsonValue* h = test::read_json(rep).find("system")->find("hierarchy");
+    const JsonValue report = test::read_json(rep);
+    const JsonValue* h = report.find("system")->find("hierarchy");
     ASSERT_NE(h, nullptr);
     EXPECT_EQ(h->find("mirror_planes")->number, on ? 5 : 0);
     if (on) {

@@ -1,5 +1,5 @@
 // The hierarchy's image links (hierarchy.h, eq. H4 of papers/glossy-radiosity.md, section
-// 12.7): pairs of elements that see each other in a planar mirror, judged by the same oracle as
+// 12.8): pairs of elements that see each other in a planar mirror, judged by the same oracle as
 // the direct links on the mirror image of one end, their visibility by rays through the mirror.
 #include <algorithm>
 #include <cmath>
@@ -64,7 +64,6 @@ bool may_cross_mirror(const Patch& a, const Patch& b, const MirrorPlanes::Plane&
 }  // namespace
 
 using hierarchy_detail::any_corner_in_front;
-using hierarchy_detail::point_values;
 
 void HierarchyBuilder::find_mirror_planes() {
   const auto r = static_cast<std::int32_t>(roots_.size());
