@@ -61,6 +61,47 @@ bool may_cross_mirror(const Patch& a, const Patch& b, const MirrorPlanes::Plane&
   return (lo.array() <= plane.hi.array()).all() && (hi.array() >= plane.lo.array()).all();
 }
 
+// The inward normal, in the plane of normal n, of edge k of polygon m (counter-clockwise about n).
+Vec3 inward(const hierarchy_detail::SmallPolygon& m, int k, const Vec3& n) {
+  return n.cross(m.v[(k + 1) % m.n] - m.v[k]);
+}
+
+// Whether point p of the plane of normal n lies in the convex polygon m.
+bool inside(const Vec3& p, const hierarchy_detail::SmallPolygon& m, const Vec3& n) {
+  for (int c = 0; c < m.n; ++c)
+    if ((p - m.v[c]).dot(inward(m, c, n)) < 0.0) return false;
+  return true;
+}
+
+// Each part of the outline (convex polygons in the plane) where the image of s (in front of
+// the plane) shows from x, of normal n, in front of x: s's image projected from x onto the plane
+// (the same solid angle), cut by each outline polygon and by x's tangent plane. visit(piece).
+template <class Visit>
+void visible_pieces(const MirrorPlanes::Plane& plane,
+                    const std::vector<hierarchy_detail::SmallPolygon>& outline, const Vec3& x,
+                    const Vec3& n, const hierarchy_detail::SmallPolygon& s, Visit&& visit) {
+  using hierarchy_detail::clip_front;
+  using hierarchy_detail::SmallPolygon;
+  const double hx = plane.height(x);
+  SmallPolygon projected;
+  projected.n = s.n;
+  for (int k = 0; k < s.n; ++k) {
+    const double hy = std::max(0.0, plane.height(s.v[k]));
+    projected.v[k] = x + (hx / (hx + hy)) * (plane.image(s.v[k]) - x);
+  }
+  SmallPolygon a, b;
+  for (const auto& m : outline) {
+    a = projected;
+    for (int k = 0; k < m.n && a.n >= 3; ++k) {
+      clip_front(a, m.v[k], inward(m, k, plane.normal), b);
+      std::swap(a, b);
+    }
+    if (a.n < 3) continue;
+    clip_front(a, x, n, b);
+    visit(b);
+  }
+}
+
 }  // namespace
 
 using hierarchy_detail::any_corner_in_front;
@@ -207,24 +248,15 @@ HierarchyBuilder::Path HierarchyBuilder::path_between(const ElementLink& l, cons
 
 bool HierarchyBuilder::on_outline(const Vec3& p, std::int32_t q) const {
   const Vec3& n = h_.mirrors_.planes[q].normal;
-  for (const auto& m : plane_outline_[q]) {
-    bool inside = true;
-    for (int c = 0; c < m.n && inside; ++c)
-      inside = (p - m.v[c]).dot(n.cross(m.v[(c + 1) % m.n] - m.v[c])) >= 0.0;
-    if (inside) return true;
-  }
+  for (const auto& m : plane_outline_[q])
+    if (inside(p, m, n)) return true;
   return false;
 }
 
 std::int32_t HierarchyBuilder::plane_root_at(const Vec3& p, std::int32_t q) const {
   const Vec3& n = h_.mirrors_.planes[q].normal;
-  for (std::size_t k = 0; k < plane_patches_[q].size(); ++k) {
-    const auto& m = plane_patches_[q][k];
-    bool inside = true;
-    for (int c = 0; c < m.n && inside; ++c)
-      inside = (p - m.v[c]).dot(n.cross(m.v[(c + 1) % m.n] - m.v[c])) >= 0.0;
-    if (inside) return plane_roots_[q][k];
-  }
+  for (std::size_t k = 0; k < plane_patches_[q].size(); ++k)
+    if (inside(p, plane_patches_[q][k], n)) return plane_roots_[q][k];
   return -1;
 }
 
@@ -271,38 +303,19 @@ double polygon_form_factor(const Vec3& x, const Vec3& n, const hierarchy_detail:
 double HierarchyBuilder::image_point_form_factor(const Vec3& x, const Vec3& n,
                                                  const hierarchy_detail::SmallPolygon& s,
                                                  const Vec3& n_s, std::int32_t q) const {
-  using hierarchy_detail::clip_front;
-  using hierarchy_detail::SmallPolygon;
   const MirrorPlanes::Plane& plane = h_.mirrors_.planes[q];
-  const double hx = plane.height(x);
   // x must see the front of s's image: its own image in front of s.
-  if (!(hx > 0.0) || s.n < 3 || !((plane.image(x) - s.v[0]).dot(n_s) > 0.0)) return 0.0;
-  // s's image projected from x onto the plane: the same solid angle, so the same form factor,
-  // and there it is cut by each of the plane's patches, which tile the mirror.
-  SmallPolygon projected;
-  projected.n = s.n;
-  for (int k = 0; k < s.n; ++k) {
-    const double hy = std::max(0.0, plane.height(s.v[k]));
-    projected.v[k] = x + (hx / (hx + hy)) * (plane.image(s.v[k]) - x);
-  }
+  if (!(plane.height(x) > 0.0) || s.n < 3 || !((plane.image(x) - s.v[0]).dot(n_s) > 0.0))
+    return 0.0;
   double f = 0.0;
-  SmallPolygon a, b;
-  for (const auto& m : plane_outline_[q]) {
-    a = projected;
-    for (int k = 0; k < m.n && a.n >= 3; ++k) {
-      clip_front(a, m.v[k], plane.normal.cross(m.v[(k + 1) % m.n] - m.v[k]), b);
-      std::swap(a, b);
-    }
-    if (a.n < 3) continue;
-    clip_front(a, x, n, b);  // what lies in front of x
-    f += polygon_form_factor(x, n, b);
-  }
+  visible_pieces(
+      plane, plane_outline_[q], x, n, s,
+      [&](const hierarchy_detail::SmallPolygon& piece) { f += polygon_form_factor(x, n, piece); });
   return f;
 }
 
 bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, std::int32_t to,
                                       const Vec3& x, const Vec2& u, Vec3* y) const {
-  using hierarchy_detail::clip_front;
   using hierarchy_detail::SmallPolygon;
   const Patch& pt = el_[to].shape;
   if (l.mirror < 0) {
@@ -311,37 +324,22 @@ bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, s
     return true;
   }
   const MirrorPlanes::Plane& plane = h_.mirrors_.planes[l.mirror];
-  const Vec3& n = el_[from].shape.normal;
-  const double hx = plane.height(x);
   const SmallPolygon s = front_of(pt, plane);
-  if (!(hx > 0.0) || s.n < 3) return false;
-  // The pieces of the outline where to's image shows from x (as image_point_form_factor cuts
-  // them), each a fan of triangles: one drawn by area, a point uniform in it.
-  SmallPolygon projected;
-  projected.n = s.n;
-  for (int k = 0; k < s.n; ++k) {
-    const double hy = std::max(0.0, plane.height(s.v[k]));
-    projected.v[k] = x + (hx / (hx + hy)) * (plane.image(s.v[k]) - x);
-  }
+  if (!(plane.height(x) > 0.0) || s.n < 3) return false;
+  // The pieces of the outline where to's image shows from x (those image_point_form_factor
+  // integrates over), each a fan of triangles: one drawn by area, a point uniform in it.
   std::array<std::array<Vec3, 3>, 48> tri;
   std::array<double, 48> area{};
   int count = 0;
   double total = 0.0;
-  SmallPolygon a, b;
-  for (const auto& m : plane_outline_[l.mirror]) {
-    a = projected;
-    for (int k = 0; k < m.n && a.n >= 3; ++k) {
-      clip_front(a, m.v[k], plane.normal.cross(m.v[(k + 1) % m.n] - m.v[k]), b);
-      std::swap(a, b);
-    }
-    if (a.n < 3) continue;
-    clip_front(a, x, n, b);
-    for (int k = 1; k + 1 < b.n && count < 48; ++k) {
-      tri[count] = {b.v[0], b.v[k], b.v[k + 1]};
-      area[count] = 0.5 * (b.v[k] - b.v[0]).cross(b.v[k + 1] - b.v[0]).norm();
-      total += area[count++];
-    }
-  }
+  visible_pieces(plane, plane_outline_[l.mirror], x, el_[from].shape.normal, s,
+                 [&](const SmallPolygon& b) {
+                   for (int k = 1; k + 1 < b.n && count < 48; ++k) {
+                     tri[count] = {b.v[0], b.v[k], b.v[k + 1]};
+                     area[count] = 0.5 * (b.v[k] - b.v[0]).cross(b.v[k + 1] - b.v[0]).norm();
+                     total += area[count++];
+                   }
+                 });
   if (!(total > 0.0)) return false;
   double pick = u.x() * total;
   int t = 0;
