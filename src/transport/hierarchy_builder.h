@@ -272,6 +272,21 @@ class HierarchyBuilder {
   // direct link, to.sample(u).
   bool target_through(const ElementLink& l, std::int32_t from, std::int32_t to, const Vec3& x,
                       const Vec2& u, Vec3* y) const;
+  // What x (on element `from`) sees of element `to`'s image in link l's mirror, cut into
+  // triangles once, so that many points can be drawn through it (target_through draws one).
+  struct ImageView {
+    std::array<std::array<Vec3, 3>, 48> tri;  // the pieces of the outline, fans of triangles
+    std::array<double, 48> area{};
+    int count = 0;
+    double total = 0.0;        // their summed area: 0 where none shows
+    Vec3 x, image_normal, on;  // the viewpoint; the plane of to's image, and a point of it
+    const MirrorPlanes::Plane* plane = nullptr;
+    // A point of `to`, uniform over the pieces for the unit-square sample u (false: none).
+    bool draw(const Vec2& u, Vec3* y) const;
+  };
+  // The view of image link l from x; its total is 0 where nothing shows.
+  void image_view(const ElementLink& l, std::int32_t from, std::int32_t to, const Vec3& x,
+                  ImageView* view) const;
   // Whether point p of mirror plane q lies on its outline.
   bool on_outline(const Vec3& p, std::int32_t q) const;
   // The root of mirror plane q under its point p, -1 for none.

@@ -314,33 +314,35 @@ double HierarchyBuilder::image_point_form_factor(const Vec3& x, const Vec3& n,
   return f;
 }
 
-bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, std::int32_t to,
-                                      const Vec3& x, const Vec2& u, Vec3* y) const {
+void HierarchyBuilder::image_view(const ElementLink& l, std::int32_t from, std::int32_t to,
+                                  const Vec3& x, ImageView* view) const {
   using hierarchy_detail::SmallPolygon;
+  ImageView& w = *view;
+  w.count = 0;
+  w.total = 0.0;
   const Patch& pt = el_[to].shape;
-  if (l.mirror < 0) {
-    double density;
-    *y = pt.sample(u, &density);
-    return true;
-  }
   const MirrorPlanes::Plane& plane = h_.mirrors_.planes[l.mirror];
   const SmallPolygon s = front_of(pt, plane);
-  if (!(plane.height(x) > 0.0) || s.n < 3) return false;
+  if (!(plane.height(x) > 0.0) || s.n < 3) return;
+  w.x = x;
+  w.plane = &plane;
+  w.image_normal = pt.normal - 2.0 * pt.normal.dot(plane.normal) * plane.normal;
+  w.on = plane.image(s.v[0]);
   // The pieces of the outline where to's image shows from x (those image_point_form_factor
-  // integrates over), each a fan of triangles: one drawn by area, a point uniform in it.
-  std::array<std::array<Vec3, 3>, 48> tri;
-  std::array<double, 48> area{};
-  int count = 0;
-  double total = 0.0;
+  // integrates over), each a fan of triangles.
   visible_pieces(plane, plane_outline_[l.mirror], x, el_[from].shape.normal, s,
                  [&](const SmallPolygon& b) {
-                   for (int k = 1; k + 1 < b.n && count < 48; ++k) {
-                     tri[count] = {b.v[0], b.v[k], b.v[k + 1]};
-                     area[count] = 0.5 * (b.v[k] - b.v[0]).cross(b.v[k + 1] - b.v[0]).norm();
-                     total += area[count++];
+                   for (int k = 1; k + 1 < b.n && w.count < 48; ++k) {
+                     w.tri[w.count] = {b.v[0], b.v[k], b.v[k + 1]};
+                     w.area[w.count] = 0.5 * (b.v[k] - b.v[0]).cross(b.v[k + 1] - b.v[0]).norm();
+                     w.total += w.area[w.count++];
                    }
                  });
+}
+
+bool HierarchyBuilder::ImageView::draw(const Vec2& u, Vec3* y) const {
   if (!(total > 0.0)) return false;
+  // A triangle drawn by area, a point uniform in it.
   double pick = u.x() * total;
   int t = 0;
   while (t + 1 < count && pick >= area[t]) pick -= area[t++];
@@ -348,12 +350,22 @@ bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, s
   const double su = std::sqrt(r1);
   const Vec3 p = (1.0 - su) * tri[t][0] + su * (1.0 - r2) * tri[t][1] + su * r2 * tri[t][2];
   // Along x -> p to the plane of to's image, and back through the mirror.
-  const Vec3 image_normal = pt.normal - 2.0 * pt.normal.dot(plane.normal) * plane.normal;
-  const Vec3 on = plane.image(s.v[0]);
   const double den = (p - x).dot(image_normal);
   if (!(std::abs(den) > 0.0)) return false;
-  *y = plane.image(x + ((on - x).dot(image_normal) / den) * (p - x));
+  *y = plane->image(x + ((on - x).dot(image_normal) / den) * (p - x));
   return true;
+}
+
+bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, std::int32_t to,
+                                      const Vec3& x, const Vec2& u, Vec3* y) const {
+  if (l.mirror < 0) {
+    double density;
+    *y = el_[to].shape.sample(u, &density);
+    return true;
+  }
+  ImageView view;
+  image_view(l, from, to, x, &view);
+  return view.draw(u, y);
 }
 
 // A Gauss rule of kImageGauss x kImageGauss points on x's unit square (Patch::sample, weighed
@@ -381,6 +393,7 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   l.mirror = q;
   const bool buried = !hierarchy_detail::wholly_exposed(ex);
   const PatchExposure exposure = exposure_of(x);
+  ImageView view;
   double sum = 0.0, weight = 0.0;
   for (int i = 0; i < kImageGauss; ++i)
     for (int j = 0; j < kImageGauss; ++j) {
@@ -393,13 +406,12 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
       if (!(f > 0.0)) continue;
       double visible = 1.0;
       if (v != LinkVisibility::kVisible) {
+        image_view(l, x, y, p, &view);
         int seen = 0, cast = 0;
         for (int k = 0; k < m; ++k) {
           Vec3 t;
           const double u0 = rng.uniform32(), v0 = rng.uniform32();
-          if (!target_through(l, x, y, p,
-                              Vec2((k % side + u0) / side, (k / side % side + v0) / side), &t))
-            continue;
+          if (!view.draw(Vec2((k % side + u0) / side, (k / side % side + v0) / side), &t)) continue;
           const Path path = path_between(l, p, ex.shape, t, ey.shape, rays);
           if (path == Path::kOutside) continue;
           ++cast;

@@ -263,16 +263,19 @@ void HierarchyBuilder::weigh_by_visibility(const ElementLink& l, int which,
   const Patch& from = el_[which == 0 ? a : b].shape;
   const Patch& to = el_[which == 0 ? b : a].shape;
   const bool buried_to = !wholly_exposed(el_[which == 0 ? b : a]);
+  ImageView view;  // an image link's, one a point
   for (int k = 0; k < kOraclePoints; ++k) {
     if (!(f[k] > 0.0f)) continue;
     const Vec3 x = hierarchy_detail::oracle_point(from, k);
     Rng point(o_.seed, link_key(a, b, l.mirror), which * kOraclePoints + k + 1);
+    if (l.mirror >= 0) image_view(l, which == 0 ? a : b, which == 0 ? b : a, x, &view);
     int seen = 0, cast = 0;
     for (int j = 0; j < kPointRays; ++j) {
       const double u = point.uniform32(), v = point.uniform32();
+      const Vec2 s((j % 2 + u) / 2.0, (j / 2 + v) / 2.0);
       Vec3 y;
-      if (!target_through(l, which == 0 ? a : b, which == 0 ? b : a, x,
-                          Vec2((j % 2 + u) / 2.0, (j / 2 + v) / 2.0), &y))
+      if (l.mirror >= 0 ? !view.draw(s, &y)
+                        : !target_through(l, which == 0 ? a : b, which == 0 ? b : a, x, s, &y))
         continue;
       if (buried_to && !exposure_to.exposed_at(to, y, caster_)) continue;
       const Path path = path_between(l, x, from, y, to, rays);
