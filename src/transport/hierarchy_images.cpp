@@ -89,16 +89,19 @@ void visible_pieces(const MirrorPlanes::Plane& plane,
     const double hy = std::max(0.0, plane.height(s.v[k]));
     projected.v[k] = x + (hx / (hx + hy)) * (plane.image(s.v[k]) - x);
   }
-  SmallPolygon a, b;
+  // Clipped from one buffer into the other, swapped by pointer (a polygon is 600 bytes).
+  SmallPolygon buffer[2];
   for (const auto& m : outline) {
-    a = projected;
-    for (int k = 0; k < m.n && a.n >= 3; ++k) {
-      clip_front(a, m.v[k], inward(m, k, plane.normal), b);
-      std::swap(a, b);
+    const SmallPolygon* in = &projected;
+    SmallPolygon *out = &buffer[0], *spare = &buffer[1];
+    for (int k = 0; k < m.n && in->n >= 3; ++k) {
+      clip_front(*in, m.v[k], inward(m, k, plane.normal), *out);
+      in = out;
+      std::swap(out, spare);
     }
-    if (a.n < 3) continue;
-    clip_front(a, x, n, b);
-    visit(b);
+    if (in->n < 3) continue;
+    clip_front(*in, x, n, *out);
+    visit(*out);
   }
 }
 
