@@ -13,6 +13,7 @@
 #include <memory>
 #include <sstream>
 
+#include "polyrad/app/report.h"
 #include "polyrad/io/image_io.h"
 #include "polyrad/render/image_compare.h"
 #include "polyrad/util/files.h"
@@ -337,6 +338,31 @@ TEST(PathTracer, GlossyMisAgreesWithBsdfSampling) {
     std::printf("%-12s MIS - BSDF-only: %+.5f +- %.5f\n", regions.names[r].c_str(), diff[0], se[0]);
   }
 }
+// Albedo 0.99: a path survives each bounce with probability 0.99, so max_depth 64 cuts more
+// than half of them still carrying light, and the image is E (1 - a^64) / (1 - a), about half
+// of E / (1 - a); with max_depth 4096 none is cut and the furnace holds. The summary says so.
+TEST(PathTracer, AlbedoNearOneNeedsTheDepthToHoldTheFurnace) {
+  const double a = 0.99, exact = 1.0 / (1.0 - a);
+  Traced t(test::scene_from_json(test::closed_box_json(Vec3(1, 1, 1), 0.25, material_json(a), 1)));
+  PathTraceOptions o;
+  o.spp = 2;
+  o.standard_error = true;
+  o.progress = false;
+  o.max_depth = 4096;
+  const PathTraceResult deep = t.tracer->render(t.camera(), o);
+  const Estimate d = image_mean(deep);
+  EXPECT_NEAR(d.mean[0], exact, 4.0 * d.se[0]);
+  EXPECT_EQ(deep.stats.truncated, 0);
+  EXPECT_EQ(describe_truncation(summarize(deep, o)), "");
+  o.max_depth = 64;
+  const PathTraceResult cut = t.tracer->render(t.camera(), o);
+  const Estimate c = image_mean(cut);
+  std::printf("albedo 0.99: %.2f (depth 4096), %.2f (64), exact %.2f; %lld of %lld paths cut\n",
+              d.mean[0], c.mean[0], exact, cut.stats.truncated, cut.stats.paths);
+  EXPECT_LT(c.mean[0], 0.6 * exact);
+  EXPECT_GT(cut.stats.truncated, cut.stats.paths / 3);
+  EXPECT_NE(describe_truncation(summarize(cut, o)).find("raise --max-depth"), std::string::npos);
+}
 
 // ---- the command line ------------------------------------------------------------------------
 
@@ -362,6 +388,33 @@ TEST(PathTracer, CommandWritesImageAndReport) {
                           img2 + " --patches " + (dir / "p.csv").string())
                 .code,
             2);
+  EXPECT_FALSE(std::filesystem::exists(img2));
+}
+
+// --max-depth reaches the path tracer and its report; paths it cuts are a warning on stderr and
+// in the report; a depth below 1 is bad input.
+TEST(PathTracer, CommandWarnsOfPathsCutAtMaxDepth) {
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "f.pfm").string(), rep = (dir / "f.json").string();
+  const std::string render = "render " + test::scene_path("furnace") + " --method pathtrace -o ";
+  test::CommandRun run = test::run_cli(render + img + " --spp 2 --max-depth 2 --report " + rep);
+  ASSERT_EQ(run.code, 0) << run.err;
+  EXPECT_NE(run.err.find("polyrad: warning: "), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("raise --max-depth"), std::string::npos) << run.err;
+  const JsonValue report = test::read_json(rep);
+  EXPECT_EQ(report.find("pathtrace")->find("max_depth")->number, 2.0);
+  const JsonValue* warnings = report.find("warnings");
+  ASSERT_NE(warnings, nullptr);
+  ASSERT_EQ(warnings->array.size(), 1u);
+  EXPECT_EQ(warnings->array[0].find("kind")->string, "paths_truncated");
+  EXPECT_GT(warnings->array[0].find("paths_truncated")->number, 0.0);
+  // The default depth cuts none in the grey furnace: no warning.
+  run = test::run_cli(render + img + " --spp 2 --report " + rep);
+  ASSERT_EQ(run.code, 0) << run.err;
+  EXPECT_EQ(run.err.find("warning"), std::string::npos) << run.err;
+  EXPECT_TRUE(test::read_json(rep).find("warnings")->array.empty());
+  const std::string img2 = (dir / "g.pfm").string();
+  EXPECT_EQ(test::run_cli(render + img2 + " --max-depth 0").code, 2);
   EXPECT_FALSE(std::filesystem::exists(img2));
 }
 

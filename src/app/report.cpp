@@ -2,6 +2,7 @@
 #include "polyrad/app/report.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include "polyrad/io/serialize.h"
 #include "polyrad/util/json.h"
@@ -41,6 +42,18 @@ PathTraceSummary summarize(const PathTraceResult& r, const PathTraceOptions& o) 
   return s;
 }
 
+std::string describe_truncation(const PathTraceSummary& p) {
+  if (p.stats.paths <= 0 || p.stats.truncated * 10000 < p.stats.paths) return "";
+  char b[320];
+  std::snprintf(b, sizeof b,
+                "%lld of %lld paths (%.2g%%) were cut at max_depth %d segments still carrying "
+                "light, so the image is dark by what they would have gathered; raise --max-depth",
+                p.stats.truncated, p.stats.paths,
+                100.0 * static_cast<double>(p.stats.truncated) / static_cast<double>(p.stats.paths),
+                p.max_depth);
+  return b;
+}
+
 void Report::finish() {
   peak_memory_bytes = ::polyrad::peak_memory_bytes();
   machine = machine_description();
@@ -55,16 +68,21 @@ void write_lobe_fields(JsonWriter& w, const LobeResolution& r) {
   w.value("resolving_patch_size", r.resolving_patch_size);
 }
 
-void write_lobe_warnings(JsonWriter& w, std::string_view key,
-                         const std::vector<LobeResolution>& lobes) {
-  w.begin_array(key);
+void write_lobe_warnings(JsonWriter& w, const std::vector<LobeResolution>& lobes) {
   for (const auto& r : lobes) {
     if (!r.smeared) continue;
     w.begin_object().value("kind", "lobe_smeared_by_patches");
     write_lobe_fields(w, r);
     w.value("message", describe_smear(r)).end_object();
   }
-  w.end_array();
+}
+
+void write_truncation_warning(JsonWriter& w, const PathTraceSummary& p) {
+  const std::string message = describe_truncation(p);
+  if (message.empty()) return;
+  w.begin_object().value("kind", "paths_truncated");
+  w.value("paths", p.stats.paths).value("paths_truncated", p.stats.truncated);
+  w.value("max_depth", p.max_depth).value("message", message).end_object();
 }
 
 void write_lobe_checks(JsonWriter& w, const std::vector<LobeResolution>& lobes) {
@@ -290,7 +308,10 @@ std::string to_json(const Report& r) {
     w.end_object();
   }
   if (r.overrides) write_json(w, "overrides", *r.overrides);
-  write_lobe_warnings(w, "warnings", r.system ? r.system->lobes : std::vector<LobeResolution>{});
+  w.begin_array("warnings");
+  if (r.system) write_lobe_warnings(w, r.system->lobes);
+  if (r.pathtrace) write_truncation_warning(w, *r.pathtrace);
+  w.end_array();
   if (r.system) write_json(w, "system", *r.system);
   if (r.solve) write_json(w, "solve", *r.solve);
   if (r.gather) write_gather(w, *r.gather);

@@ -41,6 +41,13 @@ void print_warnings(const std::vector<LobeResolution>& lobes) {
     if (r.smeared) std::fprintf(stderr, "polyrad: warning: %s\n", describe_smear(r).c_str());
 }
 
+void print_warnings(const Report& report) {
+  if (report.system) print_warnings(report.system->lobes);
+  if (!report.pathtrace) return;
+  const std::string truncated = describe_truncation(*report.pathtrace);
+  if (!truncated.empty()) std::fprintf(stderr, "polyrad: warning: %s\n", truncated.c_str());
+}
+
 namespace {
 
 std::string number_text(double v) {

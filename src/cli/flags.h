@@ -44,6 +44,8 @@ void write_report(const std::string& path, Report report);
 
 // One "polyrad: warning: ..." line on stderr per lobe the patches smear.
 void print_warnings(const std::vector<LobeResolution>& lobes);
+// The same for a report: its lobes, and a path tracer's paths cut at max_depth.
+void print_warnings(const Report& report);
 
 // What every command that builds a radiosity system takes.
 struct SystemFlags {

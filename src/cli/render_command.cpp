@@ -59,7 +59,7 @@ int run_render(RenderFlags& f) {
   o.gather = f.gather.options();
   o.image_codec = image_needs_codec(f.output);
   const RenderResult r = render(f.scene, o);
-  if (r.report.system) print_warnings(r.report.system->lobes);
+  print_warnings(r.report);
   write_image(r.image, f.output, ImageWriteOptions{f.exposure});
   if (!f.patches_csv.empty()) write_file_atomic(f.patches_csv, patch_table_csv(*r.system, r.u));
   write_report(f.report, r.report);
@@ -96,6 +96,12 @@ void add_render_command(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 1 << 24))
       ->capture_default_str();
   cmd->add_option("--seed", o.pathtrace.seed, "Path tracer: random seed")->capture_default_str();
+  cmd->add_option("--max-depth", o.pathtrace.max_depth,
+                  "Path tracer: most segments a path may have; a longer path is cut, and the "
+                  "light it would still gather is lost (a warning says when that happened to "
+                  "one path in 10,000 or more)")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
   cmd->add_option("--report", f->report, "Write a JSON report here");
   cmd->add_option("--patches", f->patches_csv, "Write one CSV row per patch here (iterative)");
   f->gather.add(*cmd);

@@ -49,6 +49,11 @@ struct PathTraceSummary {
 // The summary of a path-traced image made with options o (its error image, when it has one,
 // gives the mean relative standard error).
 PathTraceSummary summarize(const PathTraceResult& r, const PathTraceOptions& o);
+// Why the image is biased dark where paths were cut at max_depth still carrying light (one path
+// in 10,000 or more), or "" where too few were: the light they would still have gathered is
+// missing (facing mirrors of albedo 0.99: a tenth of the paths cut at 64 segments, the image
+// 10.7 percent dark against 4096).
+std::string describe_truncation(const PathTraceSummary& p);
 // Mean over pixels with signal of standard error / radiance (luminance), NaN without an error
 // image: the noise left in a path-traced reference.
 double mean_relative_standard_error(const PathTraceResult& r);

@@ -18,7 +18,9 @@
 //
 // The one bias is max_depth: paths of more than max_depth segments are dropped. With albedo at
 // most a, what is lost is at most a^max_depth / (1 - a) of the emission scale, 1e-10 relative at
-// a = 0.7 and the default 64; `truncated` counts the paths it cut.
+// a = 0.7 and the default 64, but half the furnace at a = 0.99 (facing mirrors of 0.99: a tenth
+// of the paths cut, the image 10.7 percent dark against 4096); `truncated` counts the paths it
+// cut, and the render command warns when they are one in 10,000 or more (`--max-depth`).
 //
 // Deterministic: the random stream of a sample is keyed by (seed, pixel, sample index), never by
 // thread, so an image is the same on any number of threads.
