@@ -476,6 +476,26 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
   return g;
 }
 
+void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
+                     std::vector<AreaPoint>& out) {
+  out.clear();
+  const double larger_diameter = std::max(a.diameter(), b.diameter());
+  const double eps = 1e-9 * larger_diameter;
+  if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return;
+  Polygon a_front, b_front;
+  clip_into(Polygon(a), b.centroid, b.normal, a_front);
+  clip_into(Polygon(b), a.centroid, a.normal, b_front);
+  if (a_front.size() < 3 || b_front.size() < 3) return;
+  bool a_whole_quad = static_cast<int>(a_front.size()) == a.corners && !a.is_triangle();
+  for (int c = 0; a_whole_quad && c < a.corners; ++c) a_whole_quad = a_front[c] == a.corner[c];
+  const int n = points_for(a, b, larger_diameter, options);
+  const int depth = n == options.near_points ? options.near_depth : 0;
+  thread_local std::vector<QuadraturePoint> points;
+  points.clear();
+  outer_rule(a_front, a_whole_quad, b_front, n, depth, points);
+  for (const QuadraturePoint& p : points) out.push_back({p.x, p.w});
+}
+
 double FormFactors::row_sum(PatchId i) const {
   double s = 0.0;
   for (auto [j, f_ij] : f.row(i)) s += f_ij;

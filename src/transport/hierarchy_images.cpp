@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "hierarchy_builder.h"
+#include "polyrad/transport/form_factors.h"
 #include "polyrad/util/sampling.h"
 
 namespace polyrad {
@@ -371,21 +372,22 @@ bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, s
   return view.draw(u, y);
 }
 
-// A Gauss rule of kImageGauss x kImageGauss points on x's unit square (Patch::sample, weighed
-// by its area density), at each point the exact form factor to y's image through the mirror's
-// outline; unless the oracle found the pair wholly visible, times the share of rays from the
-// point to stratified points of y, among those through the mirror, that nothing hides
-// (form_factors.visibility_rays of them where the oracle saw a shadow or between two roots,
-// open_link_rays where it cast none below the roots, as the direct links). A partly buried x: by
-// its exposed fraction.
+// The outer rule of the direct links (pair_outer_rule) on x toward y's image, graded where the
+// two meet (an element beside the mirror and the image of one beside it), at each point the
+// exact form factor to y's image through the mirror's outline; unless the oracle found the pair
+// wholly visible, times the share of rays from the point to stratified points of y, among those
+// through the mirror, that nothing hides (form_factors.visibility_rays of them where the oracle
+// saw a shadow or between two roots, open_link_rays where it cast none below the roots, as the
+// direct links). A partly buried x: its buried points left out.
 double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, std::int32_t q,
                                                 LinkVisibility v, long long* rays) const {
-  constexpr int kImageGauss = 3;
   if (v == LinkVisibility::kHidden) return 0.0;
   const MirrorPlanes::Plane& plane = h_.mirrors_.planes[q];
   const Element &ex = el_[x], &ey = el_[y];
+  thread_local std::vector<AreaPoint> rule;
+  pair_outer_rule(ex.shape, image_patch(ey.shape, plane), o_.form_factors, rule);
+  if (rule.empty()) return 0.0;
   const hierarchy_detail::SmallPolygon front = front_of(ey.shape, plane);
-  const GaussRule& g = gauss_legendre(kImageGauss);
   const bool roots = ex.parent < 0 && ey.parent < 0;  // rays as the direct links' (below)
   const int m = v == LinkVisibility::kPartial || roots
                     ? std::max(1, o_.form_factors.visibility_rays)
@@ -397,34 +399,30 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   const bool buried = !hierarchy_detail::wholly_exposed(ex);
   const PatchExposure exposure = exposure_of(x);
   ImageView view;
-  double sum = 0.0, weight = 0.0;
-  for (int i = 0; i < kImageGauss; ++i)
-    for (int j = 0; j < kImageGauss; ++j) {
-      double density = 1.0;
-      const Vec3 p = ex.shape.sample(Vec2(g.node[i], g.node[j]), &density);
-      const double w = g.weight[i] * g.weight[j] * density;
-      weight += w;
-      if (buried && !exposure.exposed_at(ex.shape, p, caster_)) continue;
-      const double f = image_point_form_factor(p, ex.shape.normal, front, ey.shape.normal, q);
-      if (!(f > 0.0)) continue;
-      double visible = 1.0;
-      if (v != LinkVisibility::kVisible) {
-        image_view(l, x, y, p, &view);
-        int seen = 0, cast = 0;
-        for (int k = 0; k < m; ++k) {
-          Vec3 t;
-          const double u0 = rng.uniform32(), v0 = rng.uniform32();
-          if (!view.draw(Vec2((k % side + u0) / side, (k / side % side + v0) / side), &t)) continue;
-          const Path path = path_between(l, p, ex.shape, t, ey.shape, rays);
-          if (path == Path::kOutside) continue;
-          ++cast;
-          if (path == Path::kOpen) ++seen;
-        }
-        visible = cast > 0 ? static_cast<double>(seen) / cast : 1.0;
+  double sum = 0.0;
+  for (const AreaPoint& point : rule) {
+    const Vec3& p = point.x;
+    if (buried && !exposure.exposed_at(ex.shape, p, caster_)) continue;
+    const double f = image_point_form_factor(p, ex.shape.normal, front, ey.shape.normal, q);
+    if (!(f > 0.0)) continue;
+    double visible = 1.0;
+    if (v != LinkVisibility::kVisible) {
+      image_view(l, x, y, p, &view);
+      int seen = 0, cast = 0;
+      for (int k = 0; k < m; ++k) {
+        Vec3 t;
+        const double u0 = rng.uniform32(), v0 = rng.uniform32();
+        if (!view.draw(Vec2((k % side + u0) / side, (k / side % side + v0) / side), &t)) continue;
+        const Path path = path_between(l, p, ex.shape, t, ey.shape, rays);
+        if (path == Path::kOutside) continue;
+        ++cast;
+        if (path == Path::kOpen) ++seen;
       }
-      sum += w * f * visible;
+      visible = cast > 0 ? static_cast<double>(seen) / cast : 1.0;
     }
-  return weight > 0.0 ? ex.shape.area * sum / weight : 0.0;
+    sum += point.w * f * visible;
+  }
+  return sum;
 }
 
 void HierarchyBuilder::split_pair(const Candidate& c, std::int32_t split_end, LinkVisibility v,

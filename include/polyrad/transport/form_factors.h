@@ -81,6 +81,18 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
                              long long* rays_cast = nullptr,
                              const PatchExposure& a_exposure = PatchExposure());
 
+// One point of an outer rule: where, and its share of the area.
+struct AreaPoint {
+  Vec3 x;
+  double w;
+};
+// The points pair_area_form_factor integrates a over with b its partner: on a's part in front of
+// b's plane (weights summing to that part's area), pieces of near pairs split toward b where
+// they are nearer than their own size, for the log-singular integrand where two patches meet.
+// Empty where the two do not face. (For a pair seen in a mirror, b is the partner's image.)
+void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
+                     std::vector<AreaPoint>& out);
+
 // The exact form factor from a point x with normal n to a polygon that lies entirely in front
 // of x's tangent plane and faces x (Lambert's formula). At most 8 corners (std::invalid_argument
 // beyond: the formula runs on two packets of four edges).
