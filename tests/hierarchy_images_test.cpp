@@ -320,6 +320,32 @@ TEST(HierarchyImages, FloorSeesItselfInALeaningMirrorAsPerpendicularRectangles) 
   EXPECT_NEAR(gained, exact, 5e-3 * exact);
 }
 
+// The facing mirrors of albedo 0.99 (scenes/stability): the flux of each grey face on image links
+// is the root links' within 1 percent (0.2 to 0.5 measured; both within half a percent of the
+// path tracer at depth 4096 on the mirrors and the ceiling). On a 3 x 3 Gauss rule, whose nodes
+// on the elements' centre lines met the lamp's edges, the faces were 2.3 to 2.6 percent dark
+// (tried).
+TEST(HierarchyImages, FacingMirrorsKeepTheRootLinksFlux) {
+  auto faces = [](bool images) {
+    auto sys = build(load_scene(test::scene_path("stability/facing-mirrors-0.99")), 0.05, images);
+    SolveOptions o;
+    o.tolerance = 1e-6;
+    const SolveResult r = solve(sys->transport, sys->transport.emission(), o);
+    EXPECT_TRUE(r.ok()) << r.message;
+    std::vector<double> flux(sys->scene().objects.size(), 0.0);
+    for (Eigen::Index l = 0; l < sys->num_unknown_patches(); ++l)
+      flux[sys->unknown_patch(l).object] += sys->transport.flux_weight()[l] * r.u(l, 1);
+    return flux;
+  };
+  const std::vector<double> roots = faces(false), on_images = faces(true);
+  const Scene scene = load_scene(test::scene_path("stability/facing-mirrors-0.99"));
+  for (const char* name : {"floor", "ceiling", "back", "front"}) {
+    const ObjectId k = scene.find_object(name);
+    std::printf("%s: root links %.6g, image links %.6g\n", name, roots[k], on_images[k]);
+    EXPECT_NEAR(on_images[k], roots[k], 0.01 * roots[k]) << name;
+  }
+}
+
 // A mirror floor and a mirror wall at right angles, a lamp and a card facing down: the card
 // sees the lamp in the floor (one mirror) and, through the floor, the lamp in the wall (two).
 const char* const kMirrorCorner = R"({
