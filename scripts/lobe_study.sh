@@ -85,7 +85,7 @@ base = f"{out}/{variant}-p{size}"
 r = json.load(open(f"{base}.json"))
 c = json.load(open(f"{base}-cmp.json"))["comparison"]
 tall = next(x for x in r["system"]["lobe_resolution"] if x["object"] == "tall_block")
-warned = any(x["object"] == "tall_block" for x in r["warnings"])
+warned = any(x.get("object") == "tall_block" for x in r["warnings"])
 regions = {g["name"]: g for g in c["regions"]}
 def region(name):
     g = regions[name]

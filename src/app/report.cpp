@@ -46,7 +46,7 @@ std::string describe_truncation(const PathTraceSummary& p) {
   if (p.stats.paths <= 0 || p.stats.truncated * 10000 < p.stats.paths) return "";
   char b[320];
   std::snprintf(b, sizeof b,
-                "%lld of %lld paths (%.2g%%) were cut at max_depth %d segments still carrying "
+                "%lld of %lld paths (%.3g%%) were cut at max_depth %d segments still carrying "
                 "light, so the image is dark by what they would have gathered; raise --max-depth",
                 p.stats.truncated, p.stats.paths,
                 100.0 * static_cast<double>(p.stats.truncated) / static_cast<double>(p.stats.paths),

@@ -255,7 +255,8 @@ class HierarchyBuilder {
   double image_point_form_factor(const Vec3& x, const Vec3& n,
                                  const hierarchy_detail::SmallPolygon& s, const Vec3& n_s,
                                  std::int32_t q) const;
-  // The etendue over pi of an image link: A_x F_{x y'} on a Gauss rule over x, each point's
+  // The etendue over pi of an image link: A_x F_{x y'} on the direct links' outer rule over x
+  // toward y's image (pair_outer_rule), each point's
   // exact form factor through the mirror times, unless the pair is wholly visible, the share of
   // its rays to y that nothing hides.
   double image_pair_form_factor(std::int32_t x, std::int32_t y, std::int32_t q, LinkVisibility v,

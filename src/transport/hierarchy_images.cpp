@@ -378,14 +378,16 @@ bool HierarchyBuilder::target_through(const ElementLink& l, std::int32_t from, s
 // wholly visible, times the share of rays from the point to stratified points of y, among those
 // through the mirror, that nothing hides (form_factors.visibility_rays of them where the oracle
 // saw a shadow or between two roots, open_link_rays where it cast none below the roots, as the
-// direct links). A partly buried x: its buried points left out.
+// direct links). A partly buried x: the mean over its exposed points, times the exposed part of
+// the region, as the direct links.
 double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, std::int32_t q,
                                                 LinkVisibility v, long long* rays) const {
   if (v == LinkVisibility::kHidden) return 0.0;
   const MirrorPlanes::Plane& plane = h_.mirrors_.planes[q];
   const Element &ex = el_[x], &ey = el_[y];
   thread_local std::vector<AreaPoint> rule;
-  pair_outer_rule(ex.shape, image_patch(ey.shape, plane), o_.form_factors, rule);
+  const Patch image = image_patch(ey.shape, plane);
+  pair_outer_rule(ex.shape, image, o_.form_factors, rule);
   if (rule.empty()) return 0.0;
   const hierarchy_detail::SmallPolygon front = front_of(ey.shape, plane);
   const bool roots = ex.parent < 0 && ey.parent < 0;  // rays as the direct links' (below)
@@ -399,10 +401,12 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   const bool buried = !hierarchy_detail::wholly_exposed(ex);
   const PatchExposure exposure = exposure_of(x);
   ImageView view;
-  double sum = 0.0;
+  double sum = 0.0, weight = 0.0, exposed_weight = 0.0;
   for (const AreaPoint& point : rule) {
     const Vec3& p = point.x;
+    weight += point.w;
     if (buried && !exposure.exposed_at(ex.shape, p, caster_)) continue;
+    exposed_weight += point.w;
     const double f = image_point_form_factor(p, ex.shape.normal, front, ey.shape.normal, q);
     if (!(f > 0.0)) continue;
     double visible = 1.0;
@@ -422,7 +426,15 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
     }
     sum += point.w * f * visible;
   }
-  return sum;
+  if (!buried) return sum;
+  // As the direct links: the mean over the exposed points, times the exposed part of the region
+  // the rule covers (x in front of the image's plane), not the points' count of it.
+  if (!(exposed_weight > 0.0)) return 0.0;
+  const bool whole = weight >= ex.shape.area * (1.0 - 1e-9);
+  const double region_exposed =
+      whole ? exposure.fraction
+            : exposure.fraction_in_front(ex.shape, image.centroid, image.normal, caster_);
+  return sum * weight * region_exposed / exposed_weight;
 }
 
 void HierarchyBuilder::split_pair(const Candidate& c, std::int32_t split_end, LinkVisibility v,
