@@ -329,6 +329,8 @@ TEST(HierarchyImages, FloorSeesItselfInALeaningMirrorAsPerpendicularRectangles) 
 // lines met the lamp's edges, with a buried element's share counted by its points, the faces
 // were 2.3 to 2.6 percent dark (tried).
 TEST(HierarchyImages, FacingMirrorsKeepTheRootLinksFlux) {
+  if (test::kUnderAddressSanitizer)  // 132 s there; the tests above meet the same code
+    GTEST_SKIP() << "a comparison of values, which the Release suite makes";
   auto faces = [](bool images) {
     auto sys = build(load_scene(test::scene_path("stability/facing-mirrors-0.99")), 0.05, images);
     SolveOptions o;
