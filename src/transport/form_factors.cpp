@@ -366,6 +366,29 @@ void visible_fractions(const Patch& a, const Patch& b, const PolygonSampler& tar
     if (exposed[g]) visible[g] = kernel_sum[g] > 0.0 ? kernel_visible[g] / kernel_sum[g] : 1.0;
 }
 
+// The outer rule's setting for a pair that passed the facing test: a's part in front of b's
+// plane and b's in front of a's, whether a's is all of a, and the rule's points a side and its
+// grading depth (points_for). False where either part is empty.
+struct PairRegions {
+  Polygon a_front, b_front;
+  bool a_whole = false;
+  int n = 0, depth = 0;
+};
+
+bool pair_regions(const Patch& a, const Patch& b, double larger_diameter,
+                  const FormFactorOptions& options, PairRegions& r) {
+  clip_into(Polygon(a), b.centroid, b.normal, r.a_front);
+  clip_into(Polygon(b), a.centroid, a.normal, r.b_front);
+  if (r.a_front.size() < 3 || r.b_front.size() < 3) return false;
+  // All four corners: a quad cut off at one corner by b's plane (within rounding of it) keeps
+  // four corners, and its cached rule would cover the part behind the plane.
+  r.a_whole = static_cast<int>(r.a_front.size()) == a.corners;
+  for (int c = 0; r.a_whole && c < a.corners; ++c) r.a_whole = r.a_front[c] == a.corner[c];
+  r.n = points_for(a, b, larger_diameter, options);
+  r.depth = r.n == options.near_points ? options.near_depth : 0;
+  return true;
+}
+
 // pair_area_form_factor for a pair that passed the facing test, with the larger of the two
 // diameters given and the quadrature points' buffer supplied by the caller (one per thread).
 // With `whole` (and a's id), a whole quad a that needs no refinement takes its rule from there.
@@ -375,18 +398,11 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
                                const PatchExposure& a_exposure,
                                std::vector<QuadraturePoint>& buffer,
                                const WholeQuadRules* whole = nullptr, PatchId a_id = -1) {
-  Polygon a_front, b_front;
-  clip_into(Polygon(a), b.centroid, b.normal, a_front);
-  clip_into(Polygon(b), a.centroid, a.normal, b_front);
-  if (a_front.size() < 3 || b_front.size() < 3) return 0.0;
-
-  // All four corners: a quad cut off at one corner by b's plane (within rounding of it) keeps
-  // four corners, and its cached rule would cover the part behind the plane.
-  bool a_whole = static_cast<int>(a_front.size()) == a.corners;
-  for (int c = 0; a_whole && c < a.corners; ++c) a_whole = a_front[c] == a.corner[c];
-  const bool a_whole_quad = a_whole && !a.is_triangle();
-  const int n = points_for(a, b, larger_diameter, options);
-  const int depth = n == options.near_points ? options.near_depth : 0;
+  PairRegions regions;
+  if (!pair_regions(a, b, larger_diameter, options, regions)) return 0.0;
+  const Polygon &a_front = regions.a_front, &b_front = regions.b_front;
+  const bool a_whole = regions.a_whole, a_whole_quad = a_whole && !a.is_triangle();
+  const int n = regions.n, depth = regions.depth;
   std::span<const QuadraturePoint> points;
   if (whole && a_whole_quad && (depth == 0 || !near_enough_to_split(a_front, b_front))) {
     points = whole->get(a_id, n);
@@ -427,19 +443,9 @@ double facing_pair_form_factor(const Patch& a, const Patch& b, double larger_dia
       total += p.w * contour_form_factor(p.x, a.normal, b_edges) * visible[g];
     }
   }
-  // A partly buried a: its mean over exposed points, times its exposed part of this region. The
-  // region is a_front: where b's plane cuts a, its exposed fraction is not a's. A face standing
-  // on a partly buried floor patch cuts off exactly the buried part, so the region is wholly
-  // exposed; scaling by a's fraction there lost two thirds of the pair (row sums of 0.69 seen
-  // beside furniture in scenes/room).
-  if (partly_buried) {
-    if (exposed_weight <= 0.0) return 0.0;
-    const double region_exposed =
-        a_whole ? a_exposure.fraction
-                : a_exposure.fraction_in_front(a, b.centroid, b.normal, *caster);
-    return total * weight * region_exposed / exposed_weight;
-  }
-  return total;
+  return partly_buried ? buried_pair_integral(total, weight, exposed_weight, a_whole, a_exposure, a,
+                                              b, *caster)
+                       : total;
 }
 
 }  // namespace
@@ -482,18 +488,26 @@ void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& op
   const double larger_diameter = std::max(a.diameter(), b.diameter());
   const double eps = 1e-9 * larger_diameter;
   if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return;
-  Polygon a_front, b_front;
-  clip_into(Polygon(a), b.centroid, b.normal, a_front);
-  clip_into(Polygon(b), a.centroid, a.normal, b_front);
-  if (a_front.size() < 3 || b_front.size() < 3) return;
-  bool a_whole_quad = static_cast<int>(a_front.size()) == a.corners && !a.is_triangle();
-  for (int c = 0; a_whole_quad && c < a.corners; ++c) a_whole_quad = a_front[c] == a.corner[c];
-  const int n = points_for(a, b, larger_diameter, options);
-  const int depth = n == options.near_points ? options.near_depth : 0;
+  PairRegions r;
+  if (!pair_regions(a, b, larger_diameter, options, r)) return;
   thread_local std::vector<QuadraturePoint> points;
   points.clear();
-  outer_rule(a_front, a_whole_quad, b_front, n, depth, points);
+  outer_rule(r.a_front, r.a_whole && !a.is_triangle(), r.b_front, r.n, r.depth, points);
   for (const QuadraturePoint& p : points) out.push_back({p.x, p.w});
+}
+
+// A partly buried a: its mean over exposed points, times its exposed part of the region. The
+// region is a_front: where b's plane cuts a, its exposed fraction is not a's. A face standing on
+// a partly buried floor patch cuts off exactly the buried part, so the region is wholly exposed;
+// scaling by a's fraction there lost two thirds of the pair (row sums of 0.69 seen beside
+// furniture in scenes/room).
+double buried_pair_integral(double total, double weight, double exposed_weight, bool a_whole,
+                            const PatchExposure& a_exposure, const Patch& a, const Patch& b,
+                            const RayCaster& caster) {
+  if (exposed_weight <= 0.0) return 0.0;
+  const double region_exposed =
+      a_whole ? a_exposure.fraction : a_exposure.fraction_in_front(a, b.centroid, b.normal, caster);
+  return total * weight * region_exposed / exposed_weight;
 }
 
 double FormFactors::row_sum(PatchId i) const {

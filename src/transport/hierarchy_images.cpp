@@ -427,14 +427,10 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
     sum += point.w * f * visible;
   }
   if (!buried) return sum;
-  // As the direct links: the mean over the exposed points, times the exposed part of the region
-  // the rule covers (x in front of the image's plane), not the points' count of it.
-  if (!(exposed_weight > 0.0)) return 0.0;
+  // As the direct links: the exposed part of the region the rule covers, not the points' count.
   const bool whole = weight >= ex.shape.area * (1.0 - 1e-9);
-  const double region_exposed =
-      whole ? exposure.fraction
-            : exposure.fraction_in_front(ex.shape, image.centroid, image.normal, caster_);
-  return sum * weight * region_exposed / exposed_weight;
+  return buried_pair_integral(sum, weight, exposed_weight, whole, exposure, ex.shape, image,
+                              caster_);
 }
 
 void HierarchyBuilder::split_pair(const Candidate& c, std::int32_t split_end, LinkVisibility v,

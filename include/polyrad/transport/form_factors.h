@@ -92,6 +92,13 @@ struct AreaPoint {
 // Empty where the two do not face. (For a pair seen in a mirror, b is the partner's image.)
 void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
                      std::vector<AreaPoint>& out);
+// A partly buried a's integral over such a rule toward b: the mean over its exposed points (total
+// the sum of w f over them, exposed_weight their weight, weight every point's) times a's exposed
+// area in the region the rule covers (all of a when a_whole, else a's part in front of b's plane,
+// whose exposed fraction is not a's).
+double buried_pair_integral(double total, double weight, double exposed_weight, bool a_whole,
+                            const PatchExposure& a_exposure, const Patch& a, const Patch& b,
+                            const RayCaster& caster);
 
 // The exact form factor from a point x with normal n to a polygon that lies entirely in front
 // of x's tangent plane and faces x (Lambert's formula). At most 8 corners (std::invalid_argument
