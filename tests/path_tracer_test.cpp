@@ -364,6 +364,22 @@ TEST(PathTracer, AlbedoNearOneNeedsTheDepthToHoldTheFurnace) {
   EXPECT_NE(describe_truncation(summarize(cut, o)).find("raise --max-depth"), std::string::npos);
 }
 
+// A path cut where it met a black surface had nothing more to gather: it is not counted as cut
+// (the warning would otherwise blame the depth for a dark image the scene made). One segment
+// only: every camera ray ends on a wall of the closed box.
+TEST(PathTracer, PathsEndingOnABlackSurfaceAreNotCountedAsCut) {
+  PathTraceOptions o;
+  o.spp = 1;
+  o.progress = false;
+  o.max_depth = 1;
+  for (double albedo : {0.0, 0.5}) {
+    Traced t(test::scene_from_json(
+        test::closed_box_json(Vec3(1, 1, 1), 0.25, material_json(albedo), 1)));
+    const PathTraceResult r = t.tracer->render(t.camera(), o);
+    EXPECT_EQ(r.stats.truncated, albedo > 0.0 ? r.stats.paths : 0) << "albedo " << albedo;
+  }
+}
+
 // ---- the command line ------------------------------------------------------------------------
 
 TEST(PathTracer, CommandWritesImageAndReport) {

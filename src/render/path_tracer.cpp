@@ -63,12 +63,13 @@ Rgb PathTracer::radiance(const Vec3& origin, const Vec3& direction, Rng& rng,
       }
       sum += beta * p.emission * w;
     }
+    const Material& m = materials_[p.material];
     if (segments >= o.max_depth) {
-      if (beta.maxCoeff() > 0.0) ++local.truncated;
+      // Cut while it could still gather light: a black surface would have ended it anyway.
+      if (beta.maxCoeff() > 0.0 && m.albedo_bound().maxCoeff() > 0.0) ++local.truncated;
       break;
     }
 
-    const Material& m = materials_[p.material];
     const Frame frame = Frame::from_normal(p.normal);
     const Vec3 wo = frame.to_local(-ray_dir);
     if (wo.z() <= 0.0) break;

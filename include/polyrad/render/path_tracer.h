@@ -65,7 +65,7 @@ struct PathTraceOptions {
 struct PathStats {
   long long paths = 0;
   long long rays = 0;       // extension and shadow rays
-  long long truncated = 0;  // paths cut by max_depth while still carrying weight
+  long long truncated = 0;  // paths cut by max_depth with weight, on a surface that reflects
   void add(const PathStats& o) {
     paths += o.paths;
     rays += o.rays;
