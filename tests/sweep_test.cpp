@@ -12,7 +12,10 @@
 #include <map>
 #include <sstream>
 
+#include "polyrad/app/reference_cache.h"
 #include "polyrad/io/image_io.h"
+#include "polyrad/scene/scene.h"
+#include "polyrad/world/world.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -238,6 +241,30 @@ TEST(Sweep, QuickFromTheCommandLineFollowsTheGather) {
     }
     EXPECT_GT(hierarchical, 0) << name;
   }
+}
+
+// The cached reference keeps its paths cut at max_depth with its key, so that a rerun that
+// reuses it can still warn of them (sweep prints describe_truncation of these counts); another
+// depth is another key, and the image is rendered again.
+TEST(Sweep, ReferenceCacheKeepsThePathsItCut) {
+  const auto dir = test::temp_dir();
+  const auto world = World::build(load_scene(test::scene_path("furnace")));
+  PathTraceOptions o;
+  o.spp = 1;
+  o.progress = false;
+  o.max_depth = 1;  // every path ends at its first wall, grey: all are cut
+  const CachedReference first = cached_reference(dir.string(), *world, o);
+  EXPECT_FALSE(first.reused);
+  EXPECT_GT(first.stats.paths, 0);
+  EXPECT_EQ(first.stats.truncated, first.stats.paths);
+  const CachedReference again = cached_reference(dir.string(), *world, o);
+  EXPECT_TRUE(again.reused);
+  EXPECT_EQ(again.stats.paths, first.stats.paths);
+  EXPECT_EQ(again.stats.truncated, first.stats.truncated);
+  o.max_depth = 1024;
+  const CachedReference deep = cached_reference(dir.string(), *world, o);
+  EXPECT_FALSE(deep.reused);
+  EXPECT_EQ(deep.stats.truncated, 0);
 }
 
 TEST(Sweep, BadInputIsExitTwoAndWritesNothing) {

@@ -20,6 +20,23 @@ std::string reference_key(const Scene& scene, const PathTraceOptions& o) {
   return k.str();
 }
 
+namespace {
+
+// The counts kept beside the key; a file written before they were kept gives zeros.
+PathStats stored_stats(const JsonValue& stored) {
+  auto count = [&](const char* name) {
+    const JsonValue* v = stored.find(name);
+    return v && v->is(JsonValue::Kind::kNumber) ? static_cast<long long>(v->number) : 0LL;
+  };
+  PathStats s;
+  s.paths = count("paths");
+  s.rays = count("rays");
+  s.truncated = count("paths_truncated");
+  return s;
+}
+
+}  // namespace
+
 CachedReference cached_reference(const std::string& dir, const World& world,
                                  const PathTraceOptions& o) {
   const std::string image_path = dir + "/reference.exr", key_path = dir + "/reference.json";
@@ -32,6 +49,7 @@ CachedReference cached_reference(const std::string& dir, const World& world,
       ref.image = read_image(image_path);
       const JsonValue* s = stored.find("seconds");
       ref.seconds = s && s->is(JsonValue::Kind::kNumber) ? s->number : std::nan("");
+      ref.stats = stored_stats(stored);
       ref.reused = true;
       return ref;
     }
@@ -48,10 +66,13 @@ CachedReference cached_reference(const std::string& dir, const World& world,
       .value("key", key)
       .value("seconds", r.seconds)
       .value("rays", r.stats.rays)
+      .value("paths", r.stats.paths)
+      .value("paths_truncated", r.stats.truncated)
       .end_object();
   write_file_atomic(key_path, w.str());
   ref.image = read_image(image_path);
   ref.seconds = r.seconds;
+  ref.stats = r.stats;
   return ref;
 }
 

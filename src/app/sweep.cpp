@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "polyrad/app/reference_cache.h"
+#include "polyrad/app/report.h"
 #include "polyrad/render/image_compare.h"
 #include "polyrad/render/path_tracer.h"
 #include "polyrad/solve/series_precompute.h"
@@ -372,6 +373,12 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
   const CachedReference reference = cached_reference(f.out, *pt_world, reference_options);
   if (reference.reused)
     std::fprintf(stderr, "polyrad sweep: reusing %s/reference.exr\n", f.out.c_str());
+  PathTraceSummary reference_paths;
+  reference_paths.max_depth = reference_options.max_depth;
+  reference_paths.stats = reference.stats;
+  const std::string cut = describe_truncation(reference_paths);
+  if (!cut.empty())
+    std::fprintf(stderr, "polyrad sweep: warning: the reference: %s\n", cut.c_str());
 
   std::vector<PathTracedPoint> traced;
   {
@@ -412,6 +419,8 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
     << "camera: " << scene.camera.width << "x" << scene.camera.height << '\n'
     << "reference: path traced, " << f.reference_spp << " spp, " << cell(reference.seconds) << " s"
     << (reference.reused ? " (cached)" : "") << '\n'
+    << "reference_paths_cut_at_max_depth: " << reference.stats.truncated << " of "
+    << reference.stats.paths << '\n'
     << "timing_repeats: " << f.repeats << '\n'
     << "load_average: " << load_at_start << " at the start, " << load_average() << " at the end\n"
     << "sweep_seconds: " << cell(watch.seconds()) << '\n';

@@ -23,6 +23,7 @@ void add_demo_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->callback([o, &exit_code] {
     const DemoResult r = demo(*o);
+    print_warnings(r.report);
     std::fputs(r.summary.c_str(), stdout);
     exit_code = kExitOk;
   });

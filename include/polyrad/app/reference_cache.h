@@ -20,6 +20,7 @@ namespace polyrad {
 struct CachedReference {
   Image image;
   double seconds = 0.0;  // what rendering it took (when it was rendered)
+  PathStats stats;       // its paths, rays and paths cut at max_depth (kept with the key)
   bool reused = false;   // read from the cache
 };
 
