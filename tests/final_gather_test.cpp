@@ -422,7 +422,9 @@ void expect_furnace(const std::vector<std::string>& faces, double a, int near_sa
                     double mesh_near_distance = 0.0, int mesh_near_samples = 0,
                     ThroughMirrors through = ThroughMirrors::kImaged) {
   Scene scene = test::scene_from_json(test::closed_box_json(Vec3(1, 1.2, 0.9), 0.3, faces, 1.0));
-  scene.camera.width = scene.camera.height = 16;  // every pixel is checked: 256 are enough
+  // Every pixel is checked: 256 are enough. Under the sanitizers, which look for memory errors
+  // in the same code, 64 (each furnace here holds at 8 x 8 in Release too).
+  scene.camera.width = scene.camera.height = test::kUnderAddressSanitizer ? 8 : 16;
   auto sys = build_system(World::build(std::move(scene)), system);
   SolveResult r = converged(*sys);
   GatherOptions o = final_options(gather_samples, indirect == IndirectMode::kMesh ? 256 : 64);
@@ -832,8 +834,9 @@ void expect_same_rows(const Csr<Rgbf>& a, const Csr<Rgbf>& b) {
 // the neighbours' coarse rays, or with the border's pixels left to the coarse rays, it fails.
 // From 14 pixels a side fewer rays are cast (below, most pixels lie on an edge or the border).
 TEST(FinalGather, FinerRaysWhereNeededGiveTheGatherOfFinerRaysEverywhere) {
+  // Under the sanitizers the two smallest sizes (the larger took a minute more there).
   for (const char* scene : {"cornell-mirror-cube", "cornell-box"})
-    for (const int size : {8, 14, 20, 29, 37}) {
+    for (const int size : test::refinement_steps(std::vector<int>{8, 14, 20, 29, 37}, 2)) {
       auto sys = small_view(scene, size);
       GatherOptions where = final_options(1, 1), everywhere = where;
       everywhere.emission_grid_everywhere = true;

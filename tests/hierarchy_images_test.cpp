@@ -139,12 +139,14 @@ TEST(HierarchyImages, ShadowsFallOnLightSeenThroughASmallMirror) {
 // solution is uniform, B = 1 + d E / (1 - a) on the grey faces, and the image links hold it as
 // the specular links between the roots do: each face's mean within 2e-4, every leaf within 0.6
 // percent at tau 0.005 (0.28 measured; 0.65 at tau 0.01, where the root links give 0.38).
+// Under the sanitizers, which look for memory errors in the same code, tau 0.02 and the faces'
+// means alone (every leaf within 1.1 percent there; 112 s at 0.005).
 TEST(HierarchyImages, FurnaceWithAMirrorIsEmissionOverOneMinusAlbedo) {
   const double a = 0.5, expect = 1.0 + a / (1.0 - a);
   std::vector<std::string> faces(6, material("diffuse", a));
   faces[3] = material("mirror", a);
   const std::string json = test::closed_box_json(Vec3(1, 1.2, 0.9), 0.45, faces, 1.0);
-  auto sys = build(test::scene_from_json(json), 0.005, true);
+  auto sys = build(test::scene_from_json(json), test::kUnderAddressSanitizer ? 0.02 : 0.005, true);
   const ElementHierarchy& h = *sys->hierarchy;
   EXPECT_GT(h.stats().image_links, 0);
   SolveOptions o;
@@ -165,7 +167,9 @@ TEST(HierarchyImages, FurnaceWithAMirrorIsEmissionOverOneMinusAlbedo) {
     if (area[f] > 0.0) {
       EXPECT_NEAR(sum[f] / area[f], expect, 2e-4 * expect) << "face " << f;
     }
-  EXPECT_LT(worst, 6e-3);
+  if (!test::kUnderAddressSanitizer) {
+    EXPECT_LT(worst, 6e-3);
+  }
 }
 
 // The mirror cube with every surface black but the floor, the mirror block and the lamp: what
@@ -175,6 +179,8 @@ TEST(HierarchyImages, FurnaceWithAMirrorIsEmissionOverOneMinusAlbedo) {
 // under the block straddle its faces' planes: their parts in front of a face, not their corners,
 // bound what can be seen in it (the image links once missed two thirds of such a root's light).
 TEST(HierarchyImages, MirrorBlockLightsTheFloorAsTheRootLinksDo) {
+  if (test::kUnderAddressSanitizer)  // 152 s there; the mirror cube's tests below meet the code
+    GTEST_SKIP() << "a comparison of values, which the Release suite makes";
   auto floor_flux = [](bool images, bool mirror) {
     Scene scene = load_scene(test::scene_path("cornell-mirror-cube"));
     Material black;
@@ -254,8 +260,10 @@ TEST(HierarchyImages, FinalGatherReadsThroughTheMirrorsTheImageLinksStandFor) {
   std::vector<std::string> faces(6, material("diffuse", a));
   faces[3] = material("mirror", a);
   const std::string json = test::closed_box_json(Vec3(1, 1.2, 0.9), 0.45, faces, 1.0);
-  auto with = build(test::scene_from_json(json), 0.01, true);
-  auto without = build(test::scene_from_json(json), 0.01, false);
+  // Under the sanitizers tau 0.03, where the same bounds hold (1.3 and 0.27 percent in Release).
+  const double tau = test::kUnderAddressSanitizer ? 0.03 : 0.01;
+  auto with = build(test::scene_from_json(json), tau, true);
+  auto without = build(test::scene_from_json(json), tau, false);
   for (ThroughMirrors through : {ThroughMirrors::kNever, ThroughMirrors::kImaged}) {
     GatherOptions g = GatherOptions::final_gather();
     g.through_mirrors = through;
