@@ -247,6 +247,9 @@ TEST(Sweep, QuickFromTheCommandLineFollowsTheGather) {
 // reuses it can still warn of them (sweep prints describe_truncation of these counts); another
 // depth is another key, and the image is rendered again.
 TEST(Sweep, ReferenceCacheKeepsThePathsItCut) {
+  // LeakSanitizer's tracer crashed at the exit of every run of this test (a world built and an
+  // .exr written in one process; docs/testing.md), after it had passed.
+  if (test::kUnderAddressSanitizer) GTEST_SKIP() << "LeakSanitizer's tracer fails at exit here";
   const auto dir = test::temp_dir();
   const auto world = World::build(load_scene(test::scene_path("furnace")));
   PathTraceOptions o;
