@@ -370,6 +370,7 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
   PathTraceOptions reference_options;
   reference_options.spp = f.reference_spp;
   reference_options.seed = kReferenceSeed;
+  reference_options.max_depth = f.max_depth;
   const CachedReference reference = cached_reference(f.out, *pt_world, reference_options);
   if (reference.reused)
     std::fprintf(stderr, "polyrad sweep: reusing %s/reference.exr\n", f.out.c_str());
@@ -387,6 +388,7 @@ SweepResult sweep(const std::string& scene_path, const SweepOptions& f) {
       PathTraceOptions o;
       o.spp = spp;
       o.seed = kPointSeed;
+      o.max_depth = f.max_depth;
       o.progress = false;
       PathTraceResult r = tracer.render(scene.camera, o);
       if (!r.image.all_finite()) throw NumericalError("a path-traced image has non-finite pixels");

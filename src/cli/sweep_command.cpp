@@ -69,6 +69,11 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
                                         "Samples per pixel of the path-traced reference")
                             ->check(CLI::Range(1, 1 << 24))
                             ->capture_default_str();
+  cmd->add_option("--max-depth", o.max_depth,
+                  "Path tracer: most segments a path may have, the reference's and the points' "
+                  "(a warning says when the reference had one path in 10,000 or more cut)")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
   cmd->add_option("--repeats", o.repeats, "Timed repeats of each product and solve (median)")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "polyrad/render/camera_gather.h"
+#include "polyrad/render/path_tracer.h"
 
 namespace polyrad {
 
@@ -40,6 +41,8 @@ struct SweepOptions {
   std::vector<int> sweeps{1, 2, 4, 8, 16, 32};
   std::vector<int> spp{1, 4, 16, 64};
   int reference_spp = 1024;
+  // Most segments of a path, the reference's and the path-traced points'.
+  int max_depth = PathTraceOptions{}.max_depth;
   int repeats = 5;
   GatherOptions gather = GatherOptions::final_gather();  // the gather of every radiosity image
 };
