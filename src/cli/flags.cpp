@@ -72,7 +72,7 @@ void SystemFlags::add(CLI::App& app) {
   app.add_option(
          "--max-memory", max_memory_gib,
          "Refuse scenes estimated to need more memory than this, in GiB (default: 80% of RAM)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1.0 / 1024, 1024.0 * 1024));  // a MiB to a PiB
   app.add_flag("--specular-on-the-fly", on_the_fly,
                "Recompute the specular transfer at every sweep instead of storing it");
   mesh_option = add_enum_option(
