@@ -121,6 +121,22 @@ TEST(Cli, WorkThatCannotFitIsRefusedAtOnceWithTheEstimate) {
   EXPECT_EQ(fits.code, 0) << fits.err;
 }
 
+// How far the light refines a hierarchy is known only as it goes: the facing mirrors of 0.99
+// refine to 236,711 links (7.2 a visible root pair, where the estimate's fit takes 1.9) and peak
+// at 58 MB against an estimate of 35. Past what the budget leaves the links (at 100 bytes a
+// link, under the 135 to 176 measured), refinement stops with exit 2 and writes nothing; with
+// the default budget the same run succeeds (HierarchyImages.FacingMirrorsKeepTheRootLinksFlux).
+TEST(Cli, HierarchyRefinedPastTheMemoryBudgetIsRefusedWithoutOutput) {
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "f.pfm").string();
+  const CommandRun r = run("render " + test::scene_path("stability/facing-mirrors-0.99") +
+                           " --gather patch -o " + img + " --max-memory 0.0335");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("the hierarchy refined to"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--link-tolerance"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(img));
+}
+
 TEST(Cli, MemoryEstimateIsWithinOneAndAHalfOfTheMeasuredPeak) {
   if (test::kUnderAddressSanitizer)
     GTEST_SKIP() << "AddressSanitizer's shadow memory is not the program's";

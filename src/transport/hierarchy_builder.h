@@ -326,6 +326,8 @@ class HierarchyBuilder {
   // Judges the candidates, splits where the oracle asks and judges the children, until each pair
   // is linked or dropped; the links go to pending_ (hierarchy_refine.cpp, with the steps below).
   void refine(std::vector<Candidate> candidates, HierarchyPass& pass);
+  // Throws InputError when the links kept so far exceed o_.max_link_bytes.
+  void require_link_memory() const;
   // The oracle's seconds since `start`, when the exposure stage stood at `exposure0`: what
   // split_all measured of exposure meanwhile is that stage's own.
   double oracle_seconds_since(const Stopwatch& start, double exposure0) const {

@@ -3,9 +3,11 @@
 // candidate pair, and the pair form factors (eq. 4) of the links it keeps.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <span>
 
 #include "hierarchy_builder.h"
+#include "polyrad/util/error.h"
 #include "polyrad/util/progress.h"
 #include "polyrad/util/sampling.h"
 #include "polyrad/util/timer.h"
@@ -318,9 +320,28 @@ void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& 
   while (!candidates.empty()) {
     const Decisions decided = judge_all(candidates, pass);
     pass.candidates += static_cast<std::int64_t>(candidates.size());
+    require_link_memory();
     candidates = split_decided(candidates, decided, pass);
   }
   pass.oracle_seconds += oracle_seconds_since(t0, exposure0);
+}
+
+void HierarchyBuilder::require_link_memory() const {
+  if (!(o_.max_link_bytes > 0.0)) return;
+  double links = 0.0;
+  for (const LinkChunks* chunks : {&links_, &pending_})
+    for (const auto& chunk : *chunks) links += static_cast<double>(chunk.size());
+  const double bytes = links * HierarchyOptions::kLinkBytesFloor;
+  if (bytes <= o_.max_link_bytes) return;
+  constexpr double gib = 1 << 30;
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "the hierarchy refined to %.3g links, at least %.3g GiB, past the %.3g GiB the "
+                "memory budget leaves its links (the light asked for more than the estimate "
+                "foresaw); use a larger --link-tolerance or --min-element-size, or raise "
+                "--max-memory",
+                links, bytes / gib, o_.max_link_bytes / gib);
+  throw InputError(text);
 }
 
 // Judged in batches, so that the outcomes (each with a link's oracle data) are never held for

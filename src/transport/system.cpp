@@ -63,6 +63,10 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
                      "--specular-on-the-fly recomputes the uniform mesh's link rows; the "
                      "hierarchical mesh stores its root links' rows (use --mesh uniform)");
   HierarchyOptions ho = options.hierarchy;
+  // The links may take what the budget leaves once the estimate's other parts are counted.
+  const MemoryEstimate& need = sys.estimated_memory;
+  ho.max_link_bytes =
+      std::max(1.0, memory_budget(options.max_memory_bytes) - need.base - need.world - need.camera);
   ho.form_factors = options.form_factors;
   ho.specular = options.specular;
   auto h = std::make_shared<ElementHierarchy>(
