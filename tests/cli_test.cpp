@@ -133,7 +133,7 @@ TEST(Cli, HierarchyRefinedPastTheMemoryBudgetIsRefusedWithoutOutput) {
                            " --gather patch -o " + img + " --max-memory 0.0335");
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("the hierarchy refined to"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("--link-tolerance"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("link tolerance"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(img));
 }
 

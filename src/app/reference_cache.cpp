@@ -1,6 +1,7 @@
 // Path-traced references cached on disk (app/reference_cache.h).
 #include "polyrad/app/reference_cache.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -26,7 +27,8 @@ namespace {
 PathStats stored_stats(const JsonValue& stored) {
   auto count = [&](const char* name) {
     const JsonValue* v = stored.find(name);
-    return v && v->is(JsonValue::Kind::kNumber) ? static_cast<long long>(v->number) : 0LL;
+    if (!v || !v->is(JsonValue::Kind::kNumber) || !(v->number >= 0.0)) return 0LL;
+    return static_cast<long long>(std::min(v->number, 0x1p53));  // a damaged file stays finite
   };
   PathStats s;
   s.paths = count("paths");
@@ -45,7 +47,8 @@ CachedReference cached_reference(const std::string& dir, const World& world,
   if (std::filesystem::exists(image_path) && std::filesystem::exists(key_path)) {
     const JsonValue stored = parse_json(read_text_file(key_path, "the reference's key"), key_path);
     const JsonValue* k = stored.find("key");
-    if (k && k->is(JsonValue::Kind::kString) && k->string == key) {
+    // One written before the counts were kept beside the key is stale: its cut paths unknown.
+    if (k && k->is(JsonValue::Kind::kString) && k->string == key && stored.find("paths")) {
       ref.image = read_image(image_path);
       const JsonValue* s = stored.find("seconds");
       ref.seconds = s && s->is(JsonValue::Kind::kNumber) ? s->number : std::nan("");
@@ -54,7 +57,8 @@ CachedReference cached_reference(const std::string& dir, const World& world,
       return ref;
     }
     std::fprintf(stderr,
-                 "polyrad: %s is stale (other scene, camera or samples); rendering it again\n",
+                 "polyrad: %s is stale (other scene, camera, samples or depth, or no count of "
+                 "its cut paths); rendering it again\n",
                  image_path.c_str());
   }
   const PathTraceResult r = PathTracer(world).render(world.camera(), o);

@@ -320,7 +320,6 @@ void HierarchyBuilder::refine(std::vector<Candidate> candidates, HierarchyPass& 
   while (!candidates.empty()) {
     const Decisions decided = judge_all(candidates, pass);
     pass.candidates += static_cast<std::int64_t>(candidates.size());
-    require_link_memory();
     candidates = split_decided(candidates, decided, pass);
   }
   pass.oracle_seconds += oracle_seconds_since(t0, exposure0);
@@ -338,7 +337,7 @@ void HierarchyBuilder::require_link_memory() const {
   std::snprintf(text, sizeof text,
                 "the hierarchy refined to %.3g links, at least %.3g GiB, past the %.3g GiB the "
                 "memory budget leaves its links (the light asked for more than the estimate "
-                "foresaw); use a larger --link-tolerance or --min-element-size, or raise "
+                "foresaw); use a larger link tolerance or smallest element, or raise "
                 "--max-memory",
                 links, bytes / gib, o_.max_link_bytes / gib);
   throw InputError(text);
@@ -365,6 +364,7 @@ HierarchyBuilder::Decisions HierarchyBuilder::judge_all(const std::vector<Candid
     pass.visibility_tests += probes;
     h_.stats_.oracle_rays += rays;
     keep_links(candidates, first, outcome, decided);
+    require_link_memory();  // after each batch: one level can hold most of the links
   }
   return decided;
 }

@@ -64,9 +64,11 @@ void build_hierarchical(RadiositySystem& sys, const SystemOptions& options) {
                      "hierarchical mesh stores its root links' rows (use --mesh uniform)");
   HierarchyOptions ho = options.hierarchy;
   // The links may take what the budget leaves once the estimate's other parts are counted.
+  // (No budget, where the machine's memory is not known: no limit, as require_memory.)
   const MemoryEstimate& need = sys.estimated_memory;
+  const double budget = memory_budget(options.max_memory_bytes);
   ho.max_link_bytes =
-      std::max(1.0, memory_budget(options.max_memory_bytes) - need.base - need.world - need.camera);
+      budget > 0.0 ? std::max(1.0, budget - need.base - need.world - need.camera) : 0.0;
   ho.form_factors = options.form_factors;
   ho.specular = options.specular;
   auto h = std::make_shared<ElementHierarchy>(

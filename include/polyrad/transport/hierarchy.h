@@ -171,8 +171,8 @@ struct HierarchyOptions {
   bool mirror_links = false;
   // What the links may hold, in bytes at kLinkBytesFloor a link (0: no limit): refinement that
   // keeps more links than that stops with an InputError (exit code 2) instead of running out of
-  // memory, since how far the light asks it to refine is known only as it goes (build_system
-  // gives it the memory budget less the estimate's other parts).
+  // memory, since how far the light asks it to refine is known only as it goes. build_system
+  // sets it: the memory budget less the estimate's process, world and camera.
   double max_link_bytes = 0.0;
   static constexpr double kLinkBytesFloor = 100.0;
   double tolerance() const { return link_tolerance > 0.0 ? link_tolerance : kDefaultLinkTolerance; }
