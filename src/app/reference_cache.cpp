@@ -23,12 +23,13 @@ std::string reference_key(const Scene& scene, const PathTraceOptions& o) {
 
 namespace {
 
-// The counts kept beside the key; a file written before they were kept gives zeros.
+// The counts kept beside the key (cached_reference takes a file without them as stale); a
+// damaged value reads as 0, or at most 2^53.
 PathStats stored_stats(const JsonValue& stored) {
   auto count = [&](const char* name) {
     const JsonValue* v = stored.find(name);
     if (!v || !v->is(JsonValue::Kind::kNumber) || !(v->number >= 0.0)) return 0LL;
-    return static_cast<long long>(std::min(v->number, 0x1p53));  // a damaged file stays finite
+    return static_cast<long long>(std::min(v->number, 0x1p53));
   };
   PathStats s;
   s.paths = count("paths");

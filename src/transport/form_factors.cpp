@@ -482,18 +482,19 @@ double pair_area_form_factor(const Patch& a, const Patch& b, const RayCaster* ca
   return g;
 }
 
-void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
+bool pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
                      std::vector<AreaPoint>& out) {
   out.clear();
   const double larger_diameter = std::max(a.diameter(), b.diameter());
   const double eps = 1e-9 * larger_diameter;
-  if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return;
+  if (!any_corner_in_front(b, a, eps) || !any_corner_in_front(a, b, eps)) return false;
   PairRegions r;
-  if (!pair_regions(a, b, larger_diameter, options, r)) return;
+  if (!pair_regions(a, b, larger_diameter, options, r)) return false;
   thread_local std::vector<QuadraturePoint> points;
   points.clear();
   outer_rule(r.a_front, r.a_whole && !a.is_triangle(), r.b_front, r.n, r.depth, points);
   for (const QuadraturePoint& p : points) out.push_back({p.x, p.w});
+  return r.a_whole;
 }
 
 // A partly buried a: its mean over exposed points, times its exposed part of the region. The

@@ -387,7 +387,7 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   const Element &ex = el_[x], &ey = el_[y];
   thread_local std::vector<AreaPoint> rule;
   const Patch image = image_patch(ey.shape, plane);
-  pair_outer_rule(ex.shape, image, o_.form_factors, rule);
+  const bool whole = pair_outer_rule(ex.shape, image, o_.form_factors, rule);
   if (rule.empty()) return 0.0;
   const hierarchy_detail::SmallPolygon front = front_of(ey.shape, plane);
   const bool roots = ex.parent < 0 && ey.parent < 0;  // rays as the direct links' (below)
@@ -428,7 +428,6 @@ double HierarchyBuilder::image_pair_form_factor(std::int32_t x, std::int32_t y, 
   }
   if (!buried) return sum;
   // As the direct links: the exposed part of the region the rule covers, not the points' count.
-  const bool whole = weight >= ex.shape.area * (1.0 - 1e-9);
   return buried_pair_integral(sum, weight, exposed_weight, whole, exposure, ex.shape, image,
                               caster_);
 }

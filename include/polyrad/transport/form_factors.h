@@ -90,7 +90,8 @@ struct AreaPoint {
 // b's plane (weights summing to that part's area), pieces of near pairs split toward b where
 // they are nearer than their own size, for the log-singular integrand where two patches meet.
 // Empty where the two do not face. (For a pair seen in a mirror, b is the partner's image.)
-void pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
+// Returns whether that part is all of a (buried_pair_integral's a_whole).
+bool pair_outer_rule(const Patch& a, const Patch& b, const FormFactorOptions& options,
                      std::vector<AreaPoint>& out);
 // A partly buried a's integral over such a rule toward b: the mean over its exposed points (total
 // the sum of w f over them, exposed_weight their weight, weight every point's) times a's exposed
