@@ -10,6 +10,8 @@
 #include <random>
 #include <sstream>
 
+#include "polyrad/transport/form_factors.h"
+
 namespace polyrad::test {
 
 namespace {
@@ -162,6 +164,56 @@ std::string mirror_floor_json(double rx0, double rx1, double mx0, double mx1, do
   put("MZ0", mz0);
   put("MZ1", mz1);
   return s;
+}
+
+const char* const kFacingMirrorsBlack = R"({
+  "camera": {"position": [0.1, 0.5, 0.5], "look_at": [0.1, 0, 0.5], "up": [0, 0, 1],
+             "fov_deg": 16, "width": 8, "height": 8},
+  "patch_size": 0.1,
+  "materials": {
+    "white":  {"type": "diffuse", "reflectance": [0.9, 0.9, 0.9]},
+    "black":  {"type": "diffuse", "reflectance": [0, 0, 0]},
+    "mirror": {"type": "mirror", "reflectance": [0.99, 0.99, 0.99]}
+  },
+  "objects": [
+    {"name": "mirror_left", "material": "mirror",
+     "polygon": [[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]]},
+    {"name": "mirror_right", "material": "mirror",
+     "polygon": [[0.2, 0, 0], [0.2, 0, 1], [0.2, 1, 1], [0.2, 1, 0]]},
+    {"name": "floor", "material": "white",
+     "polygon": [[0, 0, 0], [0, 0, 1], [0.2, 0, 1], [0.2, 0, 0]]},
+    {"name": "ceiling", "material": "black",
+     "polygon": [[0, 1, 0], [0.2, 1, 0], [0.2, 1, 1], [0, 1, 1]]},
+    {"name": "back", "material": "black",
+     "polygon": [[0, 0, 1], [0, 1, 1], [0.2, 1, 1], [0.2, 0, 1]]},
+    {"name": "front", "material": "black",
+     "polygon": [[0, 0, 0], [0.2, 0, 0], [0.2, 1, 0], [0, 1, 0]]},
+    {"name": "lamp", "material": "black", "emission": [1, 1, 1],
+     "polygon": [[0.05, 0.999, 0.45], [0.15, 0.999, 0.45], [0.15, 0.999, 0.55],
+                 [0.05, 0.999, 0.55]]}
+  ]
+})";
+
+double facing_mirrors_floor_radiance(const Vec3& x) {
+  constexpr int kImages = 150;
+  double sum = 0.0;
+  for (int k = -kImages; k <= kImages; ++k) {
+    const double x0 = 0.05 + 0.2 * k, x1 = 0.15 + 0.2 * k;
+    const std::vector<Vec3> lamp{
+        {x0, 0.999, 0.45}, {x1, 0.999, 0.45}, {x1, 0.999, 0.55}, {x0, 0.999, 0.55}};
+    sum += std::pow(0.99, std::abs(k)) *
+           std::abs(point_to_polygon_form_factor(x, Vec3(0, 1, 0), lamp));
+  }
+  return 0.9 * sum;
+}
+
+double facing_mirrors_floor_mean() {
+  constexpr int nx = 10, nz = 50;
+  double sum = 0.0;
+  for (int a = 0; a < nx; ++a)
+    for (int b = 0; b < nz; ++b)
+      sum += facing_mirrors_floor_radiance(Vec3(0.2 * (a + 0.5) / nx, 0.0, (b + 0.5) / nz));
+  return sum / (nx * nz);
 }
 
 double parallel_rectangles_ff(double a, double b, double c) {

@@ -236,69 +236,15 @@ TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
 
 // ---- facing mirrors: the floor's light is the sum over the lamp's images ---------------------
 
-// Two mirrors of 0.99 face each other across a corridor 0.2 wide, 1 high and 1 long whose
-// ceiling and ends are black; a lamp 0.1 square hangs under the ceiling in the middle, and the
-// floor (0.9) is the only other surface that reflects. The floor sees the lamp and, unfolded
-// through the mirrors, its images: the k-th at x + 0.2 k after |k| reflections, each whole (the
-// mirrors fill the corridor's sides, and a segment between two points of the unfolded corridor
-// stays in it). So B(x) = 0.9 sum_k 0.99^|k| F(x -> lamp_k) exactly (section 8's mirror image,
-// repeated); the floor's own light never comes back (its images lie in its plane, the rest is
-// black).
-const char* const kFacingMirrorsBlack = R"({
-  "camera": {"position": [0.1, 0.5, 0.01], "look_at": [0.1, 0.5, 1], "fov_deg": 60,
-             "width": 8, "height": 8},
-  "patch_size": 0.1,
-  "materials": {
-    "white":  {"type": "diffuse", "reflectance": [0.9, 0.9, 0.9]},
-    "black":  {"type": "diffuse", "reflectance": [0, 0, 0]},
-    "mirror": {"type": "mirror", "reflectance": [0.99, 0.99, 0.99]}
-  },
-  "objects": [
-    {"name": "mirror_left", "material": "mirror",
-     "polygon": [[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]]},
-    {"name": "mirror_right", "material": "mirror",
-     "polygon": [[0.2, 0, 0], [0.2, 0, 1], [0.2, 1, 1], [0.2, 1, 0]]},
-    {"name": "floor", "material": "white",
-     "polygon": [[0, 0, 0], [0, 0, 1], [0.2, 0, 1], [0.2, 0, 0]]},
-    {"name": "ceiling", "material": "black",
-     "polygon": [[0, 1, 0], [0.2, 1, 0], [0.2, 1, 1], [0, 1, 1]]},
-    {"name": "back", "material": "black",
-     "polygon": [[0, 0, 1], [0, 1, 1], [0.2, 1, 1], [0.2, 0, 1]]},
-    {"name": "front", "material": "black",
-     "polygon": [[0, 0, 0], [0.2, 0, 0], [0.2, 1, 0], [0, 1, 0]]},
-    {"name": "lamp", "material": "black", "emission": [1, 1, 1],
-     "polygon": [[0.05, 0.999, 0.45], [0.15, 0.999, 0.45], [0.15, 0.999, 0.55],
-                 [0.05, 0.999, 0.55]]}
-  ]
-})";
-
-// The floor's exact mean B: the sum over the images to |k| = 150 (a term there is 3e-7 of the
-// first, the rest of the series 2e-6 of the sum) at the midpoints of a 10 x 50 grid on the
-// floor (a 20 x 100 grid moves it by 2.5e-5).
-double facing_mirrors_floor_mean() {
-  constexpr int kImages = 150, nx = 10, nz = 50;
-  double sum = 0.0;
-  for (int a = 0; a < nx; ++a)
-    for (int b = 0; b < nz; ++b) {
-      const Vec3 x(0.2 * (a + 0.5) / nx, 0.0, (b + 0.5) / nz);
-      for (int k = -kImages; k <= kImages; ++k) {
-        const double x0 = 0.05 + 0.2 * k, x1 = 0.15 + 0.2 * k;
-        const std::vector<Vec3> lamp{
-            {x0, 0.999, 0.45}, {x1, 0.999, 0.45}, {x1, 0.999, 0.55}, {x0, 0.999, 0.55}};
-        sum += std::pow(0.99, std::abs(k)) *
-               std::abs(point_to_polygon_form_factor(x, Vec3(0, 1, 0), lamp));
-      }
-    }
-  return 0.9 * sum / (nx * nz);
-}
-
+// The corridor of test::kFacingMirrorsBlack, whose floor's light is exactly a sum over the
+// lamp's images.
 // Links between patches forget where on a patch a ray met the mirror: each bounce spreads the
 // light over the directions between the two patches, so what meets many mirrors strays to the
 // black faces and the floor is dark, by less as the patches shrink (5.6 percent at 0.1, 3.1 at
 // 0.05, 1.0 at 0.025, measured). One mirror alone is exact (MirrorImageOfTheLamp).
 TEST(Transport, FacingMirrorsLightTheFloorAsTheLampsImagesAsPatchesShrink) {
-  const double exact = facing_mirrors_floor_mean();
-  const Scene scene = test::scene_from_json(kFacingMirrorsBlack);
+  const double exact = test::facing_mirrors_floor_mean();
+  const Scene scene = test::scene_from_json(test::kFacingMirrorsBlack);
   double previous = 1.0;
   for (double size : test::refinement_steps(std::vector<double>{0.1, 0.05})) {
     auto sys = build_system(World::build(scene, {.patch_size = size}));

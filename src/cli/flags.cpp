@@ -204,6 +204,12 @@ void GatherFlags::add(CLI::App& app) {
                  "specular links carry it; " +
                      final_and_mesh(&GatherOptions::mirror_image_samples) + ")")
       ->check(CLI::Range(0, 4096));
+  app.add_option("--mirror-image-depth", mirror_image_depth,
+                 "Final gather: the most planar mirrors between a hit and a lamp's image, and "
+                 "that a cosine sample reading through a mirror follows on through (1: one "
+                 "mirror, the light of longer chains on the mirrors' specular links)" +
+                     final_only(final.mirror_image_depth))
+      ->check(CLI::Range(1, 64));
   add_enum_option(app, "--through-mirrors", through_mirrors,
                   "Final gather: where a cosine sample or a point on the reflectors meets a "
                   "mirror, follow it through the mirror to what it shows: where the mirror "
@@ -252,6 +258,7 @@ GatherOptions GatherFlags::options() const {
   if (near_samples >= 0) o.near_samples = near_samples;
   if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
   if (mirror_image_samples >= 0) o.mirror_image_samples = mirror_image_samples;
+  if (mirror_image_depth > 0) o.mirror_image_depth = mirror_image_depth;
   o.through_mirrors = through_mirrors;
   if (near_distance >= 0.0) o.near_distance = near_distance;
   if (mesh_near_distance >= 0.0) o.mesh_near_distance = mesh_near_distance;

@@ -69,6 +69,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("near_distance", o.near_distance)
       .value("reflector_samples", o.reflector_samples)
       .value("mirror_image_samples", o.mirror_image_samples)
+      .value("mirror_image_depth", o.mirror_image_depth)
       .value("through_mirrors", enum_name(o.through_mirrors))
       .value("indirect", enum_name(o.indirect))
       .value("mesh_near_distance", o.mesh_near_distance)
@@ -109,6 +110,9 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the final gather drew the mirrors' images of the lamps: it drew none.
     if (r.has("mirror_image_samples"))
       o.mirror_image_samples = static_cast<int>(r.integer("mirror_image_samples", 0, 65536));
+    // Written before the images went through more than one mirror: one.
+    if (r.has("mirror_image_depth"))
+      o.mirror_image_depth = static_cast<int>(r.integer("mirror_image_depth", 1, 64));
     if (r.has("through_mirrors"))
       o.through_mirrors = read_enum<ThroughMirrors>(r, "through_mirrors");
     // Written before the indirect light could come from the mesh: from rays.

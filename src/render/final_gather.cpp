@@ -23,11 +23,13 @@
 // area on the patches that send specular links against the cosine samples.
 // With mirror_image_samples, the lamps' light that a planar mirror reflects to the point is taken
 // from the lamps' images behind the mirrors' planes (mirror_images), and the diffuse part's reads
-// of a mirror's links leave that part out (subtract_mirrored_lights).
+// of a mirror's links leave that part out (subtract_mirrored_lights); with mirror_image_depth,
+// through chains of facing mirrors too (mirror_chains).
 // With through_mirrors, a cosine sample or reflector point that meets a delta mirror (kImaged:
 // one whose images are drawn, where no reflector points are) reads no link there: it follows its
 // ray through the mirror and reads what the mirrored ray meets (through_mirror); the lamps'
-// light it meets there is left to the mirror images where they are drawn. Both strategies of
+// light it meets there is left to the mirror images where they are drawn; it goes on through the
+// chain's further mirrors as the images do. Both strategies of
 // the diffuse part's pair decide by the mirror met, so their weights still sum to one.
 // With IndirectMode::kMesh, the diffuse part's reflected light is read at the hit itself from
 // the mesh, its direct part taken out (mesh_reflected); cosine samples that meet a light still
@@ -67,6 +69,12 @@ class FinalGatherer {
         // GatherRows leaves the count only where the world has lights and planar mirrors.
         mirror_count_(o_.mirror_image_samples),
         mirror_side_(static_cast<int>(std::sqrt(static_cast<double>(mirror_count_)))),
+        // Chains of mirrors only where every read through a mirror follows them (kMesh reads the
+        // light beyond one mirror from the mesh).
+        chain_depth_(mirror_count_ > 0 && o_.through_mirrors != ThroughMirrors::kNever &&
+                             o_.indirect != IndirectMode::kMesh
+                         ? o_.mirror_image_depth
+                         : 1),
         mesh_indirect_(o_.indirect == IndirectMode::kMesh),
         mesh_near_side_(grid_side(o_.mesh_near_samples)) {}
 
@@ -424,6 +432,77 @@ class FinalGatherer {
       for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
         rays += mirror_image(sh, l, static_cast<std::int32_t>(q), wd, terms);
     }
+    if (chain_depth_ > 1) {
+      std::array<std::int32_t, 64> chain{};
+      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q) {
+        chain[0] = static_cast<std::int32_t>(q);
+        rays += mirror_chains(sh, chain.data(), 1, rng, terms);
+      }
+    }
+    return rays;
+  }
+
+  // The chains that go on from chain[0, n) to a facing mirror without a diffuse part or light, up
+  // to chain_depth_ mirrors: each drawn with mirror_count_ / n^2 light points of its own (at least
+  // one; a lamp seen through many mirrors is far and small, and its points cost n + 1 rays
+  // each), and then the chains beyond it.
+  long long mirror_chains(const Shading& sh, std::int32_t* chain, int n, Rng& rng,
+                          PixelTerms& terms) const {
+    if (n >= chain_depth_) return 0;
+    long long rays = 0;
+    const int count = std::max(1, mirror_count_ / ((n + 1) * (n + 1)));
+    const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
+    for (const std::int32_t next :
+         c_.mirrors.planes[static_cast<std::size_t>(chain[n - 1])].facing) {
+      if (!c_.mirrors.planes[static_cast<std::size_t>(next)].pure) continue;
+      chain[n] = next;
+      for (int s = 0; s < count; ++s) {
+        const double j1 = rng.uniform32(), j2 = rng.uniform32();
+        const LightSample l = c_.lights.sample(Vec2(j1, j2));
+        if (l.area_pdf > 0.0) rays += chain_image(sh, l, chain, n + 1, wd, terms);
+      }
+      rays += mirror_chains(sh, chain, n + 1, rng, terms);
+    }
+    return rays;
+  }
+
+  // One light point l seen from x through the mirror planes chain[0, n) in turn (x -> chain[0]
+  // -> ... -> chain[n-1] -> l): at its image through them all, l' = R_0(R_1(...R_{n-1}(l))), as
+  // with one mirror (above) at the unfolded distance |x - l'| and times every mirror's s, where a
+  // ray from x toward l' meets each plane in turn and the segment from the last to l is open.
+  long long chain_image(const Shading& sh, const LightSample& l, const std::int32_t* chain, int n,
+                        const Rgb& wd, PixelTerms& terms) const {
+    const auto plane = [&](int t) -> const MirrorPlanes::Plane& {
+      return c_.mirrors.planes[static_cast<std::size_t>(chain[t])];
+    };
+    if (!(plane(0).height(sh.x) > 0.0) || !(plane(n - 1).height(l.point) > 0.0)) return 0;
+    Vec3 image = l.point;
+    Rgb s = Rgb::Ones();
+    for (int t = n - 1; t >= 0; --t) {
+      image = plane(t).image(image);
+      s *= plane(t).specular;
+    }
+    const Vec3 to = image - sh.x;
+    const double hx = plane(0).height(sh.x), hi = plane(0).height(image);
+    if (!(hi < 0.0) || !plane(0).in_box(sh.x + (hx / (hx - hi)) * to)) return 0;
+    const double dist2 = to.squaredNorm();
+    Vec3 dir = to / std::sqrt(dist2);
+    const double cos_x = dir.dot(sh.frame.n);
+    if (!(cos_x > 0.0)) return 0;
+    long long rays = 0;
+    Hit h = c_.caster.intersect(c_.caster.origin_from(sh.x, c_.patches[sh.i], dir), dir);
+    for (int t = 0;; ++t) {
+      ++rays;
+      if (!h.valid() || !h.front || c_.mirrors.plane_of[h.patch] != chain[t]) return rays;
+      dir = reflect_in_plane(dir, plane(t).normal);
+      if (t + 1 == n) break;
+      h = c_.caster.intersect_from(h.position, h.patch, dir);
+    }
+    const double cos_p = -dir.dot(c_.patches[l.patch].normal);
+    if (!(cos_p > 0.0)) return rays;
+    ++rays;
+    if (c_.caster.segment_occluded(h.position, h.patch, l.point, l.patch)) return rays;
+    terms.emission.push_back({l.patch, scaled(wd * s, cos_x * cos_p / (dist2 * l.area_pdf))});
     return rays;
   }
 
@@ -542,6 +621,16 @@ class FinalGatherer {
     const Material& m = c_.materials[c_.patches[j].material];
     return m.has_lobe() && m.is_delta();
   }
+  // Whether a ray through mirror j that meets patch k goes on through it, as the chains of
+  // images do (mirror_chains): k a mirror without a diffuse part or light, in a plane that
+  // faces j's.
+  bool chains_on(PatchId j, PatchId k) const {
+    const std::int32_t q = c_.mirrors.plane_of[k];
+    if (q < 0) return false;
+    const MirrorPlanes::Plane& plane = c_.mirrors.planes[static_cast<std::size_t>(q)];
+    const auto& facing = c_.mirrors.planes[static_cast<std::size_t>(c_.mirrors.plane_of[j])].facing;
+    return plane.pure && std::find(facing.begin(), facing.end(), q) != facing.end();
+  }
   // Whether the mirror images gave a diffuse part the lamps' light that mirror j reflects.
   bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
   // Whether the link S_{j->i} of a hierarchy leaves what mirror j shows i to its image links
@@ -560,22 +649,36 @@ class FinalGatherer {
   // B~_k - E~_k, or where z lies near x along the path the second gather there (`deeper`); and
   // the link S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on
   // a hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
-  long long through_mirror(const Vec3& x, PatchId j, const Vec3& p, const Vec3& dir, const Rgb& w,
+  //
+  // With images, the ray follows on through up to chain_depth_ mirrors in all, each a mirror
+  // the chains of images pass (a facing one without a diffuse part, no light), and reads where
+  // it leaves them; a lamp met there is the images'.
+  long long through_mirror(const Vec3& x, PatchId j, Vec3 p, const Vec3& dir, const Rgb& w,
                            Rng& rng, PixelTerms& terms, bool images, bool deeper) const {
-    const Patch& pj = c_.patches[j];
-    const Rgb ws = w * c_.materials[pj.material].specular;
-    const Vec3 out = reflect_in_plane(dir, pj.normal);
-    const Hit z = c_.caster.intersect_from(p, j, out);
-    if (!z.valid() || !z.front) return 1;
+    Rgb ws = w * c_.materials[c_.patches[j].material].specular;
+    Vec3 out = reflect_in_plane(dir, c_.patches[j].normal);
+    double behind = (p - x).norm();  // the path's length from x to the last mirror
+    long long rays = 1;
+    Hit z = c_.caster.intersect_from(p, j, out);
+    for (int m = 1; images && m < chain_depth_ && z.valid() && z.front && chains_on(j, z.patch);
+         ++m) {
+      behind += z.t;
+      p = z.position;
+      j = z.patch;
+      ws *= c_.materials[c_.patches[j].material].specular;
+      out = reflect_in_plane(out, c_.patches[j].normal);
+      z = c_.caster.intersect_from(p, j, out);
+      ++rays;
+    }
+    if (!z.valid() || !z.front) return rays;
     const PatchId k = z.patch;
     if (c_.patches[k].emitter && !images) terms.emission.push_back({k, scaled(ws, 1.0)});
     add_link(k, j, scaled(ws, 1.0), terms);
     const DiffusePoint at = locate(c_, k, z.u, z.v);
-    // x unfolded behind the mirror's plane, as far from p as it is: the near share then
-    // measures the length of the path x -> p -> z.
-    const Vec3 unfolded = p - (p - x).norm() * out;
+    // x unfolded behind the last mirror's plane, as far from p as the path to it is long: the
+    // near share then measures the length of the path x -> p -> z.
+    const Vec3 unfolded = p - behind * out;
     const double near = deeper ? near_share(unfolded, z.position, at.diameter) : 0.0;
-    long long rays = 1;
     if (near < 1.0) add_reflected(at, scaled(ws, 1.0 - near), terms, o_.diffuse);
     if (near > 0.0) rays += near_gather(z, -out, ws * near, rng, terms);
     return rays;
@@ -824,7 +927,7 @@ class FinalGatherer {
   const GatherContext& c_;
   const GatherOptions& o_;
   const int diffuse_side_, lobe_side_, light_count_, light_side_, reflector_count_, reflector_side_,
-      near_side_, near_count_, mirror_count_, mirror_side_;
+      near_side_, near_count_, mirror_count_, mirror_side_, chain_depth_;
   const bool mesh_indirect_;
   const int mesh_near_side_;
 };

@@ -43,7 +43,8 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
           std::abs(m.planes[q].offset - offset) <= close)
         break;
     if (q == m.planes.size()) {
-      m.planes.push_back({patch.normal, offset, patch.centroid, patch.centroid, mat.specular});
+      m.planes.push_back(
+          {patch.normal, offset, patch.centroid, patch.centroid, mat.specular, true, {}});
       owner.emplace_back(patch.object, patch.material);
     }
     MirrorPlanes::Plane& plane = m.planes[q];
@@ -60,6 +61,24 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
     plane.lo.array() -= grow;
     plane.hi.array() += grow;
   }
+  for (std::size_t p = 0; p < patches.size(); ++p)
+    if (m.plane_of[p] >= 0 &&
+        (patches[p].emitter || materials[patches[p].material].diffuse.maxCoeff() > 0.0))
+      m.planes[static_cast<std::size_t>(m.plane_of[p])].pure = false;
+  // Past the growth, so that two faces of a convex mirror meeting at an edge do not face.
+  const double ahead = 10.0 * grow;
+  const auto in_front = [&](const MirrorPlanes::Plane& of, const MirrorPlanes::Plane& plane) {
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 corner((c & 1 ? of.hi : of.lo).x(), (c & 2 ? of.hi : of.lo).y(),
+                        (c & 4 ? of.hi : of.lo).z());
+      if (plane.height(corner) > ahead) return true;
+    }
+    return false;
+  };
+  for (std::size_t a = 0; a < m.planes.size(); ++a)
+    for (std::size_t b = 0; b < m.planes.size(); ++b)
+      if (a != b && in_front(m.planes[b], m.planes[a]) && in_front(m.planes[a], m.planes[b]))
+        m.planes[a].facing.push_back(static_cast<std::int32_t>(b));
   return m;
 }
 

@@ -30,7 +30,11 @@
 // links would spread it over patches); the diffuse part's reads of S_{j->i} then leave out that
 // part of the link, sum_o D(j->i, o) e_o (render/mesh_direct.h), so nothing is counted twice;
 // with IndirectMode::kMesh the read of the unknown under x leaves out what the mirrors' links
-// brought it of the lamps' light likewise.
+// brought it of the lamps' light likewise. With mirror_image_depth above 1 (16 in
+// final_gather()), the lamps are also drawn at their images through chains of mirrors that face
+// each other, p' = R_1(R_2(...R_n(p))), checked by a ray to each mirror in turn, and a sample
+// read through a mirror follows its ray on through such a chain; so between facing mirrors the
+// light is not left to links that forget where it met each one.
 // Where a cosine sample meets a delta mirror j whose lamps' light the mirror images give
 // (through_mirrors, default kImaged), the gather follows it through the mirror: s_j times what
 // the mirrored ray meets, its reflected light B~ - E~ at the unknown under the hit (or the second
@@ -173,6 +177,14 @@ struct GatherOptions {
   // direct light (mesh_direct_for); without it the gather reads the links whole and says so in
   // Gather::options (mirror_image_samples 0).
   int mirror_image_samples = 0;
+  // Final gather, with mirror images and through_mirrors not kNever, kRays: the most planar
+  // mirrors between a hit and a lamp's image. Past the first, only mirrors without a diffuse
+  // part that face the one before: the lamps are drawn at their images through every such chain
+  // (mirror_image_samples / n^2 points, at least one, for a chain of n), and a cosine sample or
+  // reflector point that reads through a mirror follows its ray on through up to that many,
+  // reading where it leaves them (a lamp met there is the images'). 1: one mirror, the rest on
+  // the links, which forget where on a patch the light met each mirror.
+  int mirror_image_depth = 1;
   // Final gather: where a cosine sample or a reflector point meets a delta mirror, whether it
   // reads through it (ThroughMirrors, above; kNever: as gathers written before the choice). On
   // the mirror cube against the path tracer at 4096 spp: kNever 0.0704, kImaged 0.0697 (the
@@ -234,6 +246,7 @@ struct GatherOptions {
     o.light_samples = indirect == IndirectMode::kMesh ? 32 : 64;
     o.reflector_samples = indirect == IndirectMode::kMesh ? 0 : 64;  // none at kMesh's near points
     o.mirror_image_samples = indirect == IndirectMode::kMesh ? 32 : 64;
+    o.mirror_image_depth = indirect == IndirectMode::kMesh ? 1 : 16;
     o.mesh_near_distance = indirect == IndirectMode::kMesh ? 2.0 : 0.0;
     o.indirect = indirect;
     return o;

@@ -8,11 +8,13 @@
 // where the mirror must be met: inside the plane's box, then by a ray from x whose first hit is a
 // patch of the plane (its outline is the union of its patches, and anything in front of it
 // hides it), and from p the segment to y must be open (section 8, the mirror image of a lamp).
+// Through mirrors that face each other the image repeats, y'' = R_1(R_2(y)) and on; each plane
+// lists the planes that face it, where such a chain may go next.
 //
 //   MirrorPlanes m = mirror_planes(patches, materials, true);
 //   bool open = m.path_open(caster, patches, q, x, patches[i], y, patches[j]);
 //
-// Cost: one pass over the patches; a path test is two rays.
+// Cost: one pass over the patches and one over pairs of planes; a path test is two rays.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +39,13 @@ struct MirrorPlanes {
     double offset;  // normal . x on the plane
     Vec3 lo, hi;    // the box of its patches' corners, grown by a little
     Rgb specular;   // the mirror's reflectance s
+    // No diffuse part and no light: a ray meets only the mirror there (the final gather follows
+    // its rays on through such mirrors, and draws the lamps at their images through them).
+    bool pure = true;
+    // The planes a path that leaves this one may meet next: each with a corner of its box in
+    // front of this plane, and a corner of this one's in front of it (two mirrors that face each
+    // other; no two faces of a convex mirror do).
+    std::vector<std::int32_t> facing;
 
     double height(const Vec3& x) const { return normal.dot(x) - offset; }
     Vec3 image(const Vec3& x) const { return x - 2.0 * height(x) * normal; }
