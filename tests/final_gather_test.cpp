@@ -387,14 +387,14 @@ TEST(FinalGather, ThroughTheMirrorTheCardLightsTheStripPixelByPixel) {
 }
 
 // Between facing mirrors the floor sees the lamp through up to tens of mirrors
-// (test::kFacingMirrorsBlack, where its radiance is exactly a sum over the lamp's images). The
+// (test::facing_mirrors_black(), where its radiance is exactly a sum over the lamp's images). The
 // mesh's links between the mirrors forget where the light met each, so its light strays (the
 // floor's patches 5.6 percent dark); drawn at its images through up to mirror_image_depth
 // mirrors, the lamp lights each pixel as the sum says: the 64 pixels' mean -4.4 percent through
 // one mirror (its worst pixel 24), -0.05 through up to 32 (0.5), measured; the tail past the
 // depth is left on the links.
 TEST(FinalGather, FacingMirrorsLightTheFloorThroughTheLampsImagesPixelByPixel) {
-  const auto sys = build_system(World::build(test::scene_from_json(test::kFacingMirrorsBlack)));
+  const auto sys = build_system(World::build(test::facing_mirrors_black()));
   const SolveResult solution = converged(*sys);
   const Camera& cam = sys->scene().camera;
   std::vector<double> exact;

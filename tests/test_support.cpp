@@ -166,33 +166,15 @@ std::string mirror_floor_json(double rx0, double rx1, double mx0, double mx1, do
   return s;
 }
 
-const char* const kFacingMirrorsBlack = R"({
-  "camera": {"position": [0.1, 0.5, 0.5], "look_at": [0.1, 0, 0.5], "up": [0, 0, 1],
-             "fov_deg": 16, "width": 8, "height": 8},
-  "patch_size": 0.1,
-  "materials": {
-    "white":  {"type": "diffuse", "reflectance": [0.9, 0.9, 0.9]},
-    "black":  {"type": "diffuse", "reflectance": [0, 0, 0]},
-    "mirror": {"type": "mirror", "reflectance": [0.99, 0.99, 0.99]}
-  },
-  "objects": [
-    {"name": "mirror_left", "material": "mirror",
-     "polygon": [[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]]},
-    {"name": "mirror_right", "material": "mirror",
-     "polygon": [[0.2, 0, 0], [0.2, 0, 1], [0.2, 1, 1], [0.2, 1, 0]]},
-    {"name": "floor", "material": "white",
-     "polygon": [[0, 0, 0], [0, 0, 1], [0.2, 0, 1], [0.2, 0, 0]]},
-    {"name": "ceiling", "material": "black",
-     "polygon": [[0, 1, 0], [0.2, 1, 0], [0.2, 1, 1], [0, 1, 1]]},
-    {"name": "back", "material": "black",
-     "polygon": [[0, 0, 1], [0, 1, 1], [0.2, 1, 1], [0.2, 0, 1]]},
-    {"name": "front", "material": "black",
-     "polygon": [[0, 0, 0], [0.2, 0, 0], [0.2, 1, 0], [0, 1, 0]]},
-    {"name": "lamp", "material": "black", "emission": [1, 1, 1],
-     "polygon": [[0.05, 0.999, 0.45], [0.15, 0.999, 0.45], [0.15, 0.999, 0.55],
-                 [0.05, 0.999, 0.55]]}
-  ]
-})";
+Scene facing_mirrors_black() {
+  Scene scene = load_scene(scene_path("stability/facing-mirrors-black"));
+  scene.camera.position = Vec3(0.1, 0.5, 0.5);
+  scene.camera.look_at = Vec3(0.1, 0.0, 0.5);
+  scene.camera.up = Vec3(0, 0, 1);
+  scene.camera.fov_deg = 16.0;
+  scene.camera.width = scene.camera.height = 8;
+  return scene;
+}
 
 double facing_mirrors_floor_radiance(const Vec3& x) {
   constexpr int kImages = 150;

@@ -87,17 +87,17 @@ Field gauss_seidel_on(const TransportOperator& t, int threads, int sweeps);
 std::string mirror_floor_json(double rx0, double rx1, double mx0, double mx1, double mz0,
                               double mz1);
 
-// Two mirrors of 0.99 face each other across a corridor 0.2 wide, 1 high and 1 long whose
-// ceiling and ends are black; a lamp 0.1 square hangs under the ceiling in the middle, and the
-// floor (0.9) is the only other surface that reflects. The floor sees the lamp and, unfolded
-// through the mirrors, its images: the k-th at x + 0.2 k after |k| reflections, each whole (the
-// mirrors fill the corridor's sides, and a segment between two points of the unfolded corridor
-// stays in it). So its radiance is L(x) = 0.9 sum_k 0.99^|k| F(x -> lamp_k) exactly (section
-// 8's mirror image, repeated); the floor's own light never comes back (its images lie in its
-// plane, the rest is black). The camera looks straight down at the floor's middle from half
-// the corridor's height, 8 x 8 pixels that see only the floor (x and z within 0.07 of the
-// middle).
-extern const char* const kFacingMirrorsBlack;
+// scenes/stability/facing-mirrors-black.json: two mirrors of 0.99 face each other across a
+// corridor 0.2 wide, 1 high and 1 long whose ceiling and ends are black; a lamp 0.1 square hangs
+// under the ceiling in the middle, and the floor (0.9) is the only other surface that reflects.
+// The floor sees the lamp and, unfolded through the mirrors, its images: the k-th at x + 0.2 k
+// after |k| reflections, each whole (the mirrors fill the corridor's sides, and a segment
+// between two points of the unfolded corridor stays in it). So its radiance is
+// L(x) = 0.9 sum_k 0.99^|k| F(x -> lamp_k) exactly (section 8's mirror image, repeated); the
+// floor's own light never comes back (its images lie in its plane, the rest is black). Here the
+// camera looks straight down at the floor's middle from half the corridor's height: 8 x 8
+// pixels that see only the floor (x and z within 0.07 of the middle).
+Scene facing_mirrors_black();
 // L(x) at a floor point, the sum over the images to |k| = 150 (a term there is 3e-7 of the
 // first, the rest of the series 2e-6 of the sum).
 double facing_mirrors_floor_radiance(const Vec3& x);

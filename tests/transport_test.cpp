@@ -236,7 +236,7 @@ TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
 
 // ---- facing mirrors: the floor's light is the sum over the lamp's images ---------------------
 
-// The corridor of test::kFacingMirrorsBlack, whose floor's light is exactly a sum over the
+// The corridor of test::facing_mirrors_black(), whose floor's light is exactly a sum over the
 // lamp's images.
 // Links between patches forget where on a patch a ray met the mirror: each bounce spreads the
 // light over the directions between the two patches, so what meets many mirrors strays to the
@@ -244,7 +244,7 @@ TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
 // 0.05, 1.0 at 0.025, measured). One mirror alone is exact (MirrorImageOfTheLamp).
 TEST(Transport, FacingMirrorsLightTheFloorAsTheLampsImagesAsPatchesShrink) {
   const double exact = test::facing_mirrors_floor_mean();
-  const Scene scene = test::scene_from_json(test::kFacingMirrorsBlack);
+  const Scene scene = test::facing_mirrors_black();
   double previous = 1.0;
   for (double size : test::refinement_steps(std::vector<double>{0.1, 0.05})) {
     auto sys = build_system(World::build(scene, {.patch_size = size}));
