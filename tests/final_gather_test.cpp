@@ -427,6 +427,92 @@ TEST(FinalGather, FacingMirrorsLightTheFloorThroughTheLampsImagesPixelByPixel) {
   EXPECT_LT(worst_deep, 0.02);
 }
 
+// A room 0.4 x 0.4 x 1 whose four walls are mirrors of 0.9 (each facing the other three), its
+// floor white (0.9), its ceiling black with a lamp 0.1 square in the middle, seen from above:
+// unfolded through the walls the lamp's images fill a lattice, and the floor's radiance is
+// L(x) = 0.9 sum_ij 0.9^(|i| + |j|) F(x -> the lamp moved by (0.4 i, 0.4 j)) exactly. The chains
+// of images go back and forth between two walls, so their number grows with their length, not as
+// 3^n (trying every sequence of walls made a gather of three facing mirrors 900 times slower at
+// depth 16); the images through three walls or more stay on the links. Measured: the floor's
+// mean -10.2 percent through one wall, -3.2 to -3.4 at depths 4, 8 and 16, for 1.9, 2.2 and 2.9
+// times the rays of depth 1.
+TEST(FinalGather, MirroredRoomDrawsItsChainsBetweenPairsOfWalls) {
+  const std::string json = R"({
+    "camera": {"position": [0.2, 0.5, 0.2], "look_at": [0.2, 0, 0.2], "up": [0, 0, 1],
+               "fov_deg": 30, "width": 8, "height": 8},
+    "patch_size": 0.1,
+    "materials": {
+      "white":  {"type": "diffuse", "reflectance": [0.9, 0.9, 0.9]},
+      "black":  {"type": "diffuse", "reflectance": [0, 0, 0]},
+      "mirror": {"type": "mirror", "reflectance": [0.9, 0.9, 0.9]}
+    },
+    "objects": [
+      {"name": "west", "material": "mirror",
+       "polygon": [[0, 0, 0], [0, 1, 0], [0, 1, 0.4], [0, 0, 0.4]]},
+      {"name": "east", "material": "mirror",
+       "polygon": [[0.4, 0, 0], [0.4, 0, 0.4], [0.4, 1, 0.4], [0.4, 1, 0]]},
+      {"name": "south", "material": "mirror",
+       "polygon": [[0, 0, 0], [0.4, 0, 0], [0.4, 1, 0], [0, 1, 0]]},
+      {"name": "north", "material": "mirror",
+       "polygon": [[0, 0, 0.4], [0, 1, 0.4], [0.4, 1, 0.4], [0.4, 0, 0.4]]},
+      {"name": "floor", "material": "white",
+       "polygon": [[0, 0, 0], [0, 0, 0.4], [0.4, 0, 0.4], [0.4, 0, 0]]},
+      {"name": "ceiling", "material": "black",
+       "polygon": [[0, 1, 0], [0.4, 1, 0], [0.4, 1, 0.4], [0, 1, 0.4]]},
+      {"name": "lamp", "material": "black", "emission": [1, 1, 1],
+       "polygon": [[0.15, 0.999, 0.15], [0.25, 0.999, 0.15], [0.25, 0.999, 0.25],
+                   [0.15, 0.999, 0.25]]}
+    ]})";
+  const auto sys = build_system(World::build(test::scene_from_json(json)));
+  const SolveResult solution = converged(*sys);
+  const Camera& cam = sys->scene().camera;
+  const auto exact_radiance = [](const Vec3& x) {
+    constexpr int kImages = 60;  // 0.9^60 = 2e-3 of a term that is itself far
+    double sum = 0.0;
+    for (int i = -kImages; i <= kImages; ++i)
+      for (int j = -kImages + std::abs(i); j <= kImages - std::abs(i); ++j) {
+        const double x0 = 0.15 + 0.4 * i, z0 = 0.15 + 0.4 * j;
+        const std::vector<Vec3> lamp{{x0, 0.999, z0},
+                                     {x0 + 0.1, 0.999, z0},
+                                     {x0 + 0.1, 0.999, z0 + 0.1},
+                                     {x0, 0.999, z0 + 0.1}};
+        sum += std::pow(0.9, std::abs(i) + std::abs(j)) *
+               std::abs(point_to_polygon_form_factor(x, Vec3(0, 1, 0), lamp));
+      }
+    return 0.9 * sum;
+  };
+  double exact = 0.0;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const Ray r = cam.ray(x + 0.5, y + 0.5);
+      exact += exact_radiance(r.origin - r.origin.y() / r.direction.y() * r.direction);
+    }
+  exact /= cam.width * cam.height;
+  const auto run = [&](int depth, long long& rays) {
+    GatherOptions o = final_options();
+    o.mirror_image_depth = depth;
+    const auto direct = mesh_direct_for(o, sys->transport, *sys->world);
+    const Gather g = build_gather(*sys->world, sys->transport.layout(), o, direct.get());
+    rays = g.rays;
+    const Image image = apply_gather(g, solution.u, scene_emission(sys->patches()));
+    double sum = 0.0;
+    for (std::size_t k = 0; k < image.rgb.size(); k += 3) sum += image.rgb[k + 1];
+    return sum / (cam.width * cam.height) / exact - 1.0;
+  };
+  long long rays1 = 0, rays4 = 0, rays8 = 0, rays16 = 0;
+  const double one = run(1, rays1), four = run(4, rays4), eight = run(8, rays8),
+               sixteen = run(16, rays16);
+  std::printf(
+      "mirrored room's floor against the lattice of images: depth 1 %+.2f%% (%lld rays), 4 "
+      "%+.2f%% (%lld), 8 %+.2f%% (%lld), 16 %+.2f%% (%lld)\n",
+      100 * one, rays1, 100 * four, rays4, 100 * eight, rays8, 100 * sixteen, rays16);
+  EXPECT_LT(one, -0.05);  // the links' stray light, which the chains take back in part
+  EXPECT_LT(std::abs(sixteen), 0.5 * std::abs(one));
+  EXPECT_LT(std::abs(sixteen), 0.05);
+  EXPECT_LT(rays8, 1.5 * rays4);  // every sequence of walls: 3^4 times the chains
+  EXPECT_LT(rays16, 2 * rays4);
+}
+
 // ---- furnaces: E / (1 - a) at every pixel ------------------------------------------------------
 
 // A diffuse or mirror material of reflectance a.

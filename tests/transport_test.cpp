@@ -13,6 +13,7 @@
 #include "polyrad/render/camera_gather.h"
 #include "polyrad/solve/solver.h"
 #include "polyrad/transport/form_factors.h"
+#include "polyrad/transport/mirror_planes.h"
 #include "polyrad/transport/system.h"
 #include "test_support.h"
 
@@ -232,6 +233,49 @@ TEST(Transport, OnTheFlySpecularGivesTheStoredAnswerWithLessMemory) {
   ASSERT_TRUE(rs.ok() && rf.ok());
   EXPECT_EQ(rs.iterations, rf.iterations);
   EXPECT_LT((rs.u - rf.u).cwiseAbs().maxCoeff(), 1e-9 * rs.u.cwiseAbs().maxCoeff());
+}
+
+// ---- mirror planes: which face which ---------------------------------------------------------
+
+// The planes a chain of mirror images may go between (MirrorPlanes::Plane::facing): a room's
+// four mirror walls each face the other three, two mirrors back to back face neither, and no
+// two faces of a convex mirror face each other, even where the faces are not along the axes
+// (their boxes reach past them: a test of the boxes' corners listed each face of this prism as
+// facing one or two of its neighbours).
+TEST(MirrorPlanes, FacingPlanesAreThoseAPathCanGoBetween) {
+  const std::vector<Material> mirror{Material::mirror("mirror", Rgb(0.9, 0.9, 0.9))};
+  // A quad from a to b (corners at heights 0 and 1) facing toward `inside` or away from it.
+  const auto wall = [](const Vec3& a, const Vec3& b, const Vec3& inside, bool inward) {
+    Patch p = test::make_quad(a, b, b + Vec3(0, 1, 0), a + Vec3(0, 1, 0));
+    if ((p.normal.dot(inside - p.centroid) > 0.0) != inward)
+      p = test::make_quad(b, a, a + Vec3(0, 1, 0), b + Vec3(0, 1, 0));
+    return p;
+  };
+  const auto facing_counts = [&](std::vector<Patch> patches) {
+    const MirrorPlanes m = mirror_planes(test::make_patch_set(std::move(patches)), mirror, true);
+    std::vector<std::size_t> counts;
+    for (const auto& plane : m.planes) counts.push_back(plane.facing.size());
+    return counts;
+  };
+  const Vec3 centre(0.5, 0.5, 0.5);
+  const std::vector<Vec3> square{{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}};
+  std::vector<Patch> room, box;
+  for (int k = 0; k < 4; ++k) {
+    room.push_back(wall(square[k], square[(k + 1) % 4], centre, true));
+    box.push_back(wall(square[k], square[(k + 1) % 4], centre, false));
+  }
+  EXPECT_EQ(facing_counts(room), (std::vector<std::size_t>{3, 3, 3, 3}));
+  EXPECT_EQ(facing_counts(box), (std::vector<std::size_t>{0, 0, 0, 0}));
+  const std::vector<Patch> back_to_back{wall({0, 0, 0}, {0, 0, 1}, {-1, 0, 0.5}, true),
+                                        wall({0.01, 0, 0}, {0.01, 0, 1}, {1, 0, 0.5}, true)};
+  EXPECT_EQ(facing_counts(back_to_back), (std::vector<std::size_t>{0, 0}));
+  std::vector<Patch> prism;  // 24 faces turned a quarter of a face off the axes
+  for (int k = 0; k < 24; ++k) {
+    const auto at = [](double t) { return Vec3(std::cos(t), 0.0, std::sin(t)); };
+    const double step = 2.0 * kPi / 24;
+    prism.push_back(wall(at((k + 0.25) * step), at((k + 1.25) * step), Vec3::Zero(), false));
+  }
+  EXPECT_EQ(facing_counts(prism), std::vector<std::size_t>(24, 0));
 }
 
 // ---- facing mirrors: the floor's light is the sum over the lamp's images ---------------------

@@ -205,9 +205,11 @@ void GatherFlags::add(CLI::App& app) {
                      final_and_mesh(&GatherOptions::mirror_image_samples) + ")")
       ->check(CLI::Range(0, 4096));
   app.add_option("--mirror-image-depth", mirror_image_depth,
-                 "Final gather: the most planar mirrors between a hit and a lamp's image, and "
-                 "that a cosine sample reading through a mirror follows on through (1: one "
-                 "mirror, the light of longer chains on the mirrors' specular links)" +
+                 "Final gather: the most planar mirrors between a hit and a lamp's image, back "
+                 "and forth between two that face each other, and that a cosine sample reading "
+                 "through a mirror follows on through (1: one mirror, the light of longer chains "
+                 "on the mirrors' specular links; 1 with --indirect mesh, which reads that light "
+                 "from the mesh)" +
                      final_only(final.mirror_image_depth))
       ->check(CLI::Range(1, 64));
   add_enum_option(app, "--through-mirrors", through_mirrors,

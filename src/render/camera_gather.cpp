@@ -511,6 +511,7 @@ class GatherRows {
                      has_mirror(world) &&
                      (o.indirect == IndirectMode::kRays || !direct->mirrored.empty());
     if (!can) o.mirror_image_samples = 0;
+    o.mirror_image_depth = mirror_chain_depth(o);
     if (o.kind != GatherKind::kFinal || o.indirect != IndirectMode::kMesh)
       o.mesh_near_distance = 0.0;
     return o;

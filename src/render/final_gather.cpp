@@ -69,12 +69,7 @@ class FinalGatherer {
         // GatherRows leaves the count only where the world has lights and planar mirrors.
         mirror_count_(o_.mirror_image_samples),
         mirror_side_(static_cast<int>(std::sqrt(static_cast<double>(mirror_count_)))),
-        // Chains of mirrors only where every read through a mirror follows them (kMesh reads the
-        // light beyond one mirror from the mesh).
-        chain_depth_(mirror_count_ > 0 && o_.through_mirrors != ThroughMirrors::kNever &&
-                             o_.indirect != IndirectMode::kMesh
-                         ? o_.mirror_image_depth
-                         : 1),
+        chain_depth_(mirror_chain_depth(o_)),
         mesh_indirect_(o_.indirect == IndirectMode::kMesh),
         mesh_near_side_(grid_side(o_.mesh_near_samples)) {}
 
@@ -433,35 +428,39 @@ class FinalGatherer {
         rays += mirror_image(sh, l, static_cast<std::int32_t>(q), wd, terms);
     }
     if (chain_depth_ > 1) {
-      std::array<std::int32_t, 64> chain{};
-      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q) {
-        chain[0] = static_cast<std::int32_t>(q);
-        rays += mirror_chains(sh, chain.data(), 1, rng, terms);
-      }
+      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
+        rays += mirror_chains(sh, static_cast<std::int32_t>(q), rng, terms);
     }
     return rays;
   }
 
-  // The chains that go on from chain[0, n) to a facing mirror without a diffuse part or light, up
-  // to chain_depth_ mirrors: each drawn with mirror_count_ / n^2 light points of its own (at least
-  // one; a lamp seen through many mirrors is far and small, and its points cost n + 1 rays
-  // each), and then the chains beyond it.
-  long long mirror_chains(const Shading& sh, std::int32_t* chain, int n, Rng& rng,
-                          PixelTerms& terms) const {
-    if (n >= chain_depth_) return 0;
+  // The chains back and forth between mirror plane a, which x faces, and each plane b that faces
+  // it, a b a b ..., up to chain_depth_ mirrors, each after the first without a diffuse part or
+  // light: a chain of n mirrors drawn with mirror_image_samples / n^2 light points
+  // of its own, at least one (a lamp seen through many mirrors is far and small, and each of its
+  // points costs n + 1 rays). Only two planes take turns: between two facing mirrors the chains
+  // are few, n - 1 a plane pair at each length, where among three or more that face each other
+  // (mirrors on a room's four walls) every sequence of planes would be a chain to try, 3^n of
+  // them, nearly all of them no path; what meets a third mirror stays on the links.
+  long long mirror_chains(const Shading& sh, std::int32_t a, Rng& rng, PixelTerms& terms) const {
+    const auto& planes = c_.mirrors.planes;
+    if (!(planes[static_cast<std::size_t>(a)].height(sh.x) > 0.0)) return 0;
     long long rays = 0;
-    const int count = std::max(1, mirror_count_ / ((n + 1) * (n + 1)));
-    const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
-    for (const std::int32_t next :
-         c_.mirrors.planes[static_cast<std::size_t>(chain[n - 1])].facing) {
-      if (!c_.mirrors.planes[static_cast<std::size_t>(next)].pure) continue;
-      chain[n] = next;
-      for (int s = 0; s < count; ++s) {
-        const double j1 = rng.uniform32(), j2 = rng.uniform32();
-        const LightSample l = c_.lights.sample(Vec2(j1, j2));
-        if (l.area_pdf > 0.0) rays += chain_image(sh, l, chain, n + 1, wd, terms);
+    std::array<std::int32_t, 64> chain{};
+    chain[0] = a;
+    for (const std::int32_t b : planes[static_cast<std::size_t>(a)].facing) {
+      for (int n = 1; n < chain_depth_; ++n) {
+        const std::int32_t next = n % 2 == 1 ? b : a;
+        if (!planes[static_cast<std::size_t>(next)].pure) break;
+        chain[static_cast<std::size_t>(n)] = next;
+        const int count = std::max(1, mirror_count_ / ((n + 1) * (n + 1)));
+        const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
+        for (int s = 0; s < count; ++s) {
+          const double j1 = rng.uniform32(), j2 = rng.uniform32();
+          const LightSample l = c_.lights.sample(Vec2(j1, j2));
+          if (l.area_pdf > 0.0) rays += chain_image(sh, l, chain.data(), n + 1, wd, terms);
+        }
       }
-      rays += mirror_chains(sh, chain, n + 1, rng, terms);
     }
     return rays;
   }
@@ -621,15 +620,15 @@ class FinalGatherer {
     const Material& m = c_.materials[c_.patches[j].material];
     return m.has_lobe() && m.is_delta();
   }
-  // Whether a ray through mirror j that meets patch k goes on through it, as the chains of
-  // images do (mirror_chains): k a mirror without a diffuse part or light, in a plane that
-  // faces j's.
-  bool chains_on(PatchId j, PatchId k) const {
+  // Whether a ray through m mirrors, in planes a b a b ... (b < 0 while m is 1), that meets
+  // patch k goes on through it, as the chains of images do (mirror_chains): k a mirror without a
+  // diffuse part or light, in a plane that faces a (the second mirror), or the chain's next.
+  bool chains_on(std::int32_t a, std::int32_t b, int m, PatchId k) const {
     const std::int32_t q = c_.mirrors.plane_of[k];
-    if (q < 0) return false;
-    const MirrorPlanes::Plane& plane = c_.mirrors.planes[static_cast<std::size_t>(q)];
-    const auto& facing = c_.mirrors.planes[static_cast<std::size_t>(c_.mirrors.plane_of[j])].facing;
-    return plane.pure && std::find(facing.begin(), facing.end(), q) != facing.end();
+    if (q < 0 || !c_.mirrors.planes[static_cast<std::size_t>(q)].pure) return false;
+    if (m > 1) return q == (m % 2 == 0 ? a : b);
+    const auto& facing = c_.mirrors.planes[static_cast<std::size_t>(a)].facing;
+    return std::find(facing.begin(), facing.end(), q) != facing.end();
   }
   // Whether the mirror images gave a diffuse part the lamps' light that mirror j reflects.
   bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
@@ -660,11 +659,15 @@ class FinalGatherer {
     double behind = (p - x).norm();  // the path's length from x to the last mirror
     long long rays = 1;
     Hit z = c_.caster.intersect_from(p, j, out);
-    for (int m = 1; images && m < chain_depth_ && z.valid() && z.front && chains_on(j, z.patch);
-         ++m) {
+    // The chain's two planes, as mirror_chains draws them: a b a b ...
+    const std::int32_t a = images ? c_.mirrors.plane_of[j] : -1;
+    std::int32_t b = -1;
+    for (int m = 1;
+         images && m < chain_depth_ && z.valid() && z.front && chains_on(a, b, m, z.patch); ++m) {
       behind += z.t;
       p = z.position;
       j = z.patch;
+      if (m == 1) b = c_.mirrors.plane_of[j];
       ws *= c_.materials[c_.patches[j].material].specular;
       out = reflect_in_plane(out, c_.patches[j].normal);
       z = c_.caster.intersect_from(p, j, out);

@@ -23,6 +23,32 @@ bool MirrorPlanes::path_open(const RayCaster& caster, const PatchSet& patches, s
   return !caster.segment_occluded(h.position, patches[h.patch], y, py);
 }
 
+namespace {
+
+// Two planes face when a corner of a patch of each lies in front of the other by more than
+// `ahead` (the patches' corners, not the boxes': a box reaches past a facet that does not lie
+// along the axes; and more than rounding, so that two faces of a convex mirror meeting at an
+// edge do not).
+void find_facing(MirrorPlanes& m, const PatchSet& patches, double ahead) {
+  const std::size_t count = m.planes.size();
+  if (count > kMaxFacingPlanes) return;
+  std::vector<std::vector<Vec3>> corners(count);
+  for (std::size_t p = 0; p < patches.size(); ++p)
+    if (m.plane_of[p] >= 0)
+      for (const Vec3& corner : patches[p].corner)
+        corners[static_cast<std::size_t>(m.plane_of[p])].push_back(corner);
+  const auto in_front = [&](std::size_t of, std::size_t a) {
+    return std::any_of(corners[of].begin(), corners[of].end(),
+                       [&](const Vec3& c) { return m.planes[a].height(c) > ahead; });
+  };
+  for (std::size_t a = 0; a < count; ++a)
+    for (std::size_t b = 0; b < count; ++b)
+      if (a != b && in_front(b, a) && in_front(a, b))
+        m.planes[a].facing.push_back(static_cast<std::int32_t>(b));
+}
+
+}  // namespace
+
 MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
                            bool enabled) {
   MirrorPlanes m;
@@ -65,20 +91,7 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
     if (m.plane_of[p] >= 0 &&
         (patches[p].emitter || materials[patches[p].material].diffuse.maxCoeff() > 0.0))
       m.planes[static_cast<std::size_t>(m.plane_of[p])].pure = false;
-  // Past the growth, so that two faces of a convex mirror meeting at an edge do not face.
-  const double ahead = 10.0 * grow;
-  const auto in_front = [&](const MirrorPlanes::Plane& of, const MirrorPlanes::Plane& plane) {
-    for (int c = 0; c < 8; ++c) {
-      const Vec3 corner((c & 1 ? of.hi : of.lo).x(), (c & 2 ? of.hi : of.lo).y(),
-                        (c & 4 ? of.hi : of.lo).z());
-      if (plane.height(corner) > ahead) return true;
-    }
-    return false;
-  };
-  for (std::size_t a = 0; a < m.planes.size(); ++a)
-    for (std::size_t b = 0; b < m.planes.size(); ++b)
-      if (a != b && in_front(m.planes[b], m.planes[a]) && in_front(m.planes[a], m.planes[b]))
-        m.planes[a].facing.push_back(static_cast<std::int32_t>(b));
+  find_facing(m, patches, 10.0 * grow);
   return m;
 }
 

@@ -14,9 +14,11 @@
 //   MirrorPlanes m = mirror_planes(patches, materials, true);
 //   bool open = m.path_open(caster, patches, q, x, patches[i], y, patches[j]);
 //
-// Cost: one pass over the patches and one over pairs of planes; a path test is two rays.
+// Cost: one pass over the patches, and the facing test, quadratic in the planes (up to
+// kMaxFacingPlanes); a path test is two rays.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -32,6 +34,10 @@ inline bool is_planar_mirror(const Patch& p, const Material& m, double scene_dia
   return m.has_lobe() && m.is_delta() && p.bend <= 1e-9 * scene_diameter;
 }
 
+// Past this many planes none lists the planes that face it (a mirror tessellated into facets,
+// whose chains of facets would be many and each carry little; the test is quadratic).
+inline constexpr std::size_t kMaxFacingPlanes = 256;
+
 // The planar mirror patches, grouped by object, material and plane.
 struct MirrorPlanes {
   struct Plane {
@@ -42,9 +48,9 @@ struct MirrorPlanes {
     // No diffuse part and no light: a ray meets only the mirror there (the final gather follows
     // its rays on through such mirrors, and draws the lamps at their images through them).
     bool pure = true;
-    // The planes a path that leaves this one may meet next: each with a corner of its box in
-    // front of this plane, and a corner of this one's in front of it (two mirrors that face each
-    // other; no two faces of a convex mirror do).
+    // The planes a path that leaves this one may meet next: each with a corner of a patch in
+    // front of this plane, and a corner of one of this one's in front of it (two mirrors that
+    // face each other; no two faces of a convex mirror do).
     std::vector<std::int32_t> facing;
 
     double height(const Vec3& x) const { return normal.dot(x) - offset; }
