@@ -36,7 +36,7 @@ size_t lines(const std::string& s) {
 
 TEST(Cli, RenderWritesImageReportAndPatchTable) {
   auto dir = test::temp_dir();
-  std::string img = (dir / "cb.exr").string(), rep = (dir / "r.json").string(),
+  std::string img = (dir / "cb.pfm").string(), rep = (dir / "r.json").string(),
               csv = (dir / "p.csv").string();
   CommandRun r = run("render " + test::scene_path("cornell-box") + " -o " + img + " --report " +
                      rep + " --patches " + csv + " --method iterative --tolerance 1e-4" +
@@ -227,7 +227,7 @@ TEST(Cli, PrecomputeThenRelight) {
       run("precompute " + scene + " -o " + prt + " --tolerance 1e-3 --precision half --report " +
           (dir / "pre.json").string() + kQuickGather);
   ASSERT_EQ(pre.code, 0) << pre.err;
-  CommandRun relit = run("relight " + prt + " -o " + (dir / "a.exr").string() +
+  CommandRun relit = run("relight " + prt + " -o " + (dir / "a.pfm").string() +
                          " --emission light=34,24,8 --report " + (dir / "rel.json").string());
   ASSERT_EQ(relit.code, 0) << relit.err;
   const JsonValue report = test::read_json(dir / "rel.json");

@@ -384,7 +384,7 @@ TEST(PathTracer, PathsEndingOnABlackSurfaceAreNotCountedAsCut) {
 
 TEST(PathTracer, CommandWritesImageAndReport) {
   auto dir = test::temp_dir();
-  std::string img = (dir / "f.exr").string(), rep = (dir / "f.json").string();
+  std::string img = (dir / "f.pfm").string(), rep = (dir / "f.json").string();
   test::CommandRun run =
       test::run_cli("render " + test::scene_path("furnace") +
                     " --method pathtrace --spp 2 --seed 3 -o " + img + " --report " + rep);
