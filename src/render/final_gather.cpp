@@ -435,13 +435,13 @@ class FinalGatherer {
   }
 
   // The chains back and forth between mirror plane a, which x faces, and each plane b that faces
-  // it, a b a b ..., up to chain_depth_ mirrors, each after the first without a diffuse part or
-  // light: a chain of n mirrors drawn with mirror_image_samples / n^2 light points
-  // of its own, at least one (a lamp seen through many mirrors is far and small, and each of its
-  // points costs n + 1 rays). Only two planes take turns: between two facing mirrors the chains
-  // are few, n - 1 a plane pair at each length, where among three or more that face each other
-  // (mirrors on a room's four walls) every sequence of planes would be a chain to try, 3^n of
-  // them, nearly all of them no path; what meets a third mirror stays on the links.
+  // it, a b a b ..., from 2 up to chain_depth_ mirrors, each after the first without a diffuse
+  // part or light: a chain of n mirrors drawn with mirror_image_samples / n^2 light points of
+  // its own, at least one (a lamp seen through many mirrors is far and small, and each of its
+  // points costs n + 1 rays). Only two planes take turns, so there is one chain a pair of facing
+  // planes at each length; among three or more that face each other (mirrors on a room's four
+  // walls) every sequence of planes would be a chain to try, 3^n of them, nearly all of them no
+  // path. What meets a third mirror stays on the links.
   long long mirror_chains(const Shading& sh, std::int32_t a, Rng& rng, PixelTerms& terms) const {
     const auto& planes = c_.mirrors.planes;
     if (!(planes[static_cast<std::size_t>(a)].height(sh.x) > 0.0)) return 0;
