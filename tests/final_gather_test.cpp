@@ -38,9 +38,12 @@ SolveResult converged(const RadiositySystem& sys) {
   return r;
 }
 
-Image gather_image(const RadiositySystem& sys, const Field& u, const GatherOptions& o) {
+// The image of solution u through a gather with options o; rays, if given, the rays it cast.
+Image gather_image(const RadiositySystem& sys, const Field& u, const GatherOptions& o,
+                   long long* rays = nullptr) {
   const auto direct = mesh_direct_for(o, sys.transport, *sys.world);
   Gather g = build_gather(*sys.world, sys.transport.layout(), o, direct.get());
+  if (rays) *rays = g.rays;
   return apply_gather(g, u, scene_emission(sys.patches()));
 }
 
@@ -491,10 +494,7 @@ TEST(FinalGather, MirroredRoomDrawsItsChainsBetweenPairsOfWalls) {
   const auto run = [&](int depth, long long& rays) {
     GatherOptions o = final_options();
     o.mirror_image_depth = depth;
-    const auto direct = mesh_direct_for(o, sys->transport, *sys->world);
-    const Gather g = build_gather(*sys->world, sys->transport.layout(), o, direct.get());
-    rays = g.rays;
-    const Image image = apply_gather(g, solution.u, scene_emission(sys->patches()));
+    const Image image = gather_image(*sys, solution.u, o, &rays);
     double sum = 0.0;
     for (std::size_t k = 0; k < image.rgb.size(); k += 3) sum += image.rgb[k + 1];
     return sum / (cam.width * cam.height) / exact - 1.0;

@@ -411,9 +411,7 @@ class FinalGatherer {
 
   // The lamps' light that planar mirrors reflect to x, for the diffuse part: mirror_count_
   // points drawn on the lights by area, each seen at its image in every mirror plane that x and
-  // the point both face, d s Le cos_x cos_p / (pi |x - p'|^2 pdf_A) where the segment to the
-  // image p' crosses the plane inside the mirror's box, a ray meets the mirror there and a
-  // shadow ray from it reaches p (a path x -> mirror -> p has that length and those cosines).
+  // the point both face (chain_image of one mirror), then the chains of facing mirrors.
   long long mirror_images(const Shading& sh, Rng& rng, PixelTerms& terms) const {
     const int side = mirror_side_, count = mirror_count_;
     const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
@@ -424,13 +422,12 @@ class FinalGatherer {
                                           : Vec2((s + j1) / count, j2);
       const LightSample l = c_.lights.sample(u);
       if (!(l.area_pdf > 0.0)) continue;
-      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
-        rays += mirror_image(sh, l, static_cast<std::int32_t>(q), wd, terms);
+      for (std::int32_t q = 0; q < static_cast<std::int32_t>(c_.mirrors.planes.size()); ++q)
+        rays += chain_image(sh, l, &q, 1, wd, terms);
     }
-    if (chain_depth_ > 1) {
-      for (std::size_t q = 0; q < c_.mirrors.planes.size(); ++q)
-        rays += mirror_chains(sh, static_cast<std::int32_t>(q), rng, terms);
-    }
+    if (chain_depth_ > 1)
+      for (std::int32_t q = 0; q < static_cast<std::int32_t>(c_.mirrors.planes.size()); ++q)
+        rays += mirror_chains(sh, q, rng, terms);
     return rays;
   }
 
@@ -466,68 +463,49 @@ class FinalGatherer {
   }
 
   // One light point l seen from x through the mirror planes chain[0, n) in turn (x -> chain[0]
-  // -> ... -> chain[n-1] -> l): at its image through them all, l' = R_0(R_1(...R_{n-1}(l))), as
-  // with one mirror (above) at the unfolded distance |x - l'| and times every mirror's s, where a
-  // ray from x toward l' meets each plane in turn and the segment from the last to l is open.
+  // -> ... -> chain[n-1] -> l), weight wd per unit of the estimate: at its image through them
+  // all, l' = R_0(R_1(...R_{n-1}(l))), d s_0...s_{n-1} Le cos_x cos_l / (pi |x - l'|^2 pdf_A),
+  // where the segment to l' crosses the first plane inside its box, a ray from x meets each
+  // plane in turn and a shadow ray from the last reaches l (a path through the mirrors has that
+  // length and those cosines). With n = 1 the image in one mirror (mirror_images).
   long long chain_image(const Shading& sh, const LightSample& l, const std::int32_t* chain, int n,
                         const Rgb& wd, PixelTerms& terms) const {
     const auto plane = [&](int t) -> const MirrorPlanes::Plane& {
       return c_.mirrors.planes[static_cast<std::size_t>(chain[t])];
     };
-    if (!(plane(0).height(sh.x) > 0.0) || !(plane(n - 1).height(l.point) > 0.0)) return 0;
-    Vec3 image = l.point;
-    Rgb s = Rgb::Ones();
-    for (int t = n - 1; t >= 0; --t) {
-      image = plane(t).image(image);
-      s *= plane(t).specular;
+    Vec3 inner = l.point;  // l's image through chain[1, n)
+    Rgb s = plane(n - 1).specular;
+    for (int t = n - 1; t >= 1; --t) {
+      inner = plane(t).image(inner);
+      s *= plane(t - 1).specular;
     }
+    const double hx = plane(0).height(sh.x), hp = plane(0).height(inner);
+    if (!(hx > 0.0) || !(hp > 0.0) || !(plane(n - 1).height(l.point) > 0.0)) return 0;
+    const Vec3 image = inner - 2.0 * hp * plane(0).normal;
+    const Vec3 y = sh.x + (hx / (hx + hp)) * (image - sh.x);
+    if (!plane(0).in_box(y)) return 0;
     const Vec3 to = image - sh.x;
-    const double hx = plane(0).height(sh.x), hi = plane(0).height(image);
-    if (!(hi < 0.0) || !plane(0).in_box(sh.x + (hx / (hx - hi)) * to)) return 0;
     const double dist2 = to.squaredNorm();
-    Vec3 dir = to / std::sqrt(dist2);
-    const double cos_x = dir.dot(sh.frame.n);
-    if (!(cos_x > 0.0)) return 0;
-    long long rays = 0;
-    Hit h = c_.caster.intersect(c_.caster.origin_from(sh.x, c_.patches[sh.i], dir), dir);
+    const Vec3 wi = to / std::sqrt(dist2);
+    Vec3 onward = wi;  // from the last mirror to l
+    for (int t = 0; t < n; ++t) onward = reflect_in_plane(onward, plane(t).normal);
+    const double cos_x = wi.dot(sh.frame.n);
+    const double cos_p = -onward.dot(c_.patches[l.patch].normal);
+    if (!(cos_x > 0.0) || !(cos_p > 0.0)) return 0;
+    long long rays = 1;
+    Hit h = c_.caster.intersect(c_.caster.origin_from(sh.x, c_.patches[sh.i], wi), wi);
+    Vec3 dir = wi;
     for (int t = 0;; ++t) {
-      ++rays;
       if (!h.valid() || !h.front || c_.mirrors.plane_of[h.patch] != chain[t]) return rays;
-      dir = reflect_in_plane(dir, plane(t).normal);
       if (t + 1 == n) break;
+      dir = reflect_in_plane(dir, plane(t).normal);
       h = c_.caster.intersect_from(h.position, h.patch, dir);
+      ++rays;
     }
-    const double cos_p = -dir.dot(c_.patches[l.patch].normal);
-    if (!(cos_p > 0.0)) return rays;
     ++rays;
     if (c_.caster.segment_occluded(h.position, h.patch, l.point, l.patch)) return rays;
     terms.emission.push_back({l.patch, scaled(wd * s, cos_x * cos_p / (dist2 * l.area_pdf))});
     return rays;
-  }
-
-  // One light point l seen in mirror plane q from x (above), weight wd per unit of the estimate.
-  long long mirror_image(const Shading& sh, const LightSample& l, std::int32_t q, const Rgb& wd,
-                         PixelTerms& terms) const {
-    const MirrorPlanes::Plane& plane = c_.mirrors.planes[static_cast<std::size_t>(q)];
-    const double hx = plane.normal.dot(sh.x) - plane.offset;
-    const double hp = plane.normal.dot(l.point) - plane.offset;
-    if (!(hx > 0.0) || !(hp > 0.0)) return 0;
-    const Vec3 image = l.point - 2.0 * hp * plane.normal;
-    const Vec3 y = sh.x + (hx / (hx + hp)) * (image - sh.x);
-    if ((y.array() < plane.lo.array()).any() || (y.array() > plane.hi.array()).any()) return 0;
-    const Vec3 to = image - sh.x;
-    const double dist2 = to.squaredNorm();
-    const Vec3 wi = to / std::sqrt(dist2);
-    const Vec3 onward = reflect_in_plane(wi, plane.normal);  // from the mirror to p
-    const double cos_x = wi.dot(sh.frame.n);
-    const double cos_p = -onward.dot(c_.patches[l.patch].normal);
-    if (!(cos_x > 0.0) || !(cos_p > 0.0)) return 0;
-    const Hit h = c_.caster.intersect(c_.caster.origin_from(sh.x, c_.patches[sh.i], wi), wi);
-    if (!h.valid() || !h.front || c_.mirrors.plane_of[h.patch] != q) return 1;
-    if (c_.caster.segment_occluded(h.position, h.patch, l.point, l.patch)) return 2;
-    terms.emission.push_back(
-        {l.patch, scaled(wd * plane.specular, cos_x * cos_p / (dist2 * l.area_pdf))});
-    return 2;
   }
 
   // With mirror images, w times the part of S_{j->i} that the lamps' light reflected once by
