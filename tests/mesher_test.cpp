@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
+#include "polyrad/geometry/convex_polygon.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -181,4 +184,34 @@ TEST(Mesher, UnsampleInvertsSample) {
 }
 
 }  // namespace
+// The convex polygons the mirror chains' beams are made of (geometry/convex_polygon.h): a hull
+// drops inner and repeated points and turns counter-clockwise; two squares overlapping by a
+// quarter meet in a square of that area whichever way each turns; squares that share only an
+// edge or a corner meet in nothing.
+TEST(ConvexPolygon, HullIntersectionAndContainment) {
+  const std::vector<Vec2> hull =
+      convex_hull({{1, 1}, {0, 0}, {0.5, 0.5}, {1, 0}, {0, 1}, {1, 0}, {0.2, 0.9}});
+  ASSERT_EQ(hull.size(), 4u);
+  EXPECT_DOUBLE_EQ(twice_signed_area(hull), 2.0);
+  EXPECT_TRUE(convex_contains(hull, Vec2(0.5, 0.5)));
+  EXPECT_TRUE(convex_contains(hull, Vec2(1.0, 0.5)));  // on an edge
+  EXPECT_FALSE(convex_contains(hull, Vec2(1.001, 0.5)));
+  EXPECT_EQ(convex_hull({{0, 0}, {1, 1}, {2, 2}}).size(), 2u);  // on one line: no area
+  const auto square = [](double x, double y, bool ccw) {
+    std::vector<Vec2> s{{x, y}, {x + 1, y}, {x + 1, y + 1}, {x, y + 1}};
+    if (!ccw) std::reverse(s.begin(), s.end());
+    return s;
+  };
+  for (const bool a : {true, false})
+    for (const bool b : {true, false}) {
+      const std::vector<Vec2> both = intersect_convex(square(0, 0, a), square(0.5, 0.5, b));
+      EXPECT_NEAR(twice_signed_area(both), 0.5, 1e-15);
+      EXPECT_TRUE(convex_contains(both, Vec2(0.75, 0.75)));
+      EXPECT_FALSE(convex_contains(both, Vec2(0.25, 0.75)));
+      EXPECT_TRUE(intersect_convex(square(0, 0, a), square(1, 0, b)).empty());  // an edge
+      EXPECT_TRUE(intersect_convex(square(0, 0, a), square(1, 1, b)).empty());  // a corner
+      EXPECT_TRUE(intersect_convex(square(0, 0, a), square(3, 0, b)).empty());
+    }
+}
+
 }  // namespace polyrad
