@@ -5,16 +5,21 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "polyrad/render/camera_gather.h"
 #include "polyrad/solve/solver.h"
 #include "polyrad/transport/form_factors.h"
+#include "polyrad/transport/mirror_chains.h"
 #include "polyrad/transport/mirror_planes.h"
 #include "polyrad/transport/system.h"
+#include "polyrad/util/sampling.h"
 #include "test_support.h"
 
 namespace polyrad {
@@ -276,6 +281,128 @@ TEST(MirrorPlanes, FacingPlanesAreThoseAPathCanGoBetween) {
     prism.push_back(wall(at((k + 0.25) * step), at((k + 1.25) * step), Vec3::Zero(), false));
   }
   EXPECT_EQ(facing_counts(prism), std::vector<std::size_t>(24, 0));
+}
+
+// The chains of mirror planes from a point (transport/mirror_chains.h), in a room of four mirror
+// walls 0.4 wide and 1 high, its floor and ceiling not mirrors. Every sequence of walls that a
+// ray from the point meets, traced here on its own, must be a chain kept: the beams may only
+// prune sequences that no line can take. And they must prune: a straight line crosses the
+// unfolded walls of one axis in turn (west, east, west ... going west), so of the 4 x 3 x 3
+// sequences of three walls only those that alternate on each axis are paths.
+TEST(MirrorChains, EveryPathARayTakesIsAChainKeptAndNoOther) {
+  const std::vector<Material> mirror{Material::mirror("mirror", Rgb(0.9, 0.9, 0.9))};
+  const auto wall = [](const Vec3& a, const Vec3& b) {  // facing the room's centre
+    Patch p = test::make_quad(a, b, b + Vec3(0, 1, 0), a + Vec3(0, 1, 0));
+    if (p.normal.dot(Vec3(0.2, 0.5, 0.2) - p.centroid) < 0.0)
+      p = test::make_quad(b, a, a + Vec3(0, 1, 0), b + Vec3(0, 1, 0));
+    return p;
+  };
+  const std::vector<Vec3> square{{0, 0, 0}, {0.4, 0, 0}, {0.4, 0, 0.4}, {0, 0, 0.4}};
+  std::vector<Patch> walls;
+  for (int k = 0; k < 4; ++k) walls.push_back(wall(square[k], square[(k + 1) % 4]));
+  const MirrorPlanes m = mirror_planes(test::make_patch_set(std::move(walls)), mirror, true);
+  ASSERT_EQ(m.planes.size(), 4u);
+  // The walls a ray from x along d meets, up to `length` of them, before it leaves by the floor
+  // or the ceiling.
+  const auto trace = [&](Vec3 x, Vec3 d, int length) {
+    std::vector<std::int32_t> met;
+    while (static_cast<int>(met.size()) < length) {
+      double t_min = 1e300;
+      std::int32_t hit = -1;
+      for (std::int32_t q = 0; q < 4; ++q) {
+        const auto& plane = m.planes[static_cast<std::size_t>(q)];
+        const double toward = -plane.normal.dot(d);
+        if (!(toward > 0.0)) continue;
+        const double t = plane.height(x) / toward;
+        if (t < t_min) t_min = t, hit = q;
+      }
+      x += t_min * d;
+      if (x.y() < 0.0 || x.y() > 1.0) break;
+      met.push_back(hit);
+      d = reflect_in_plane(d, m.planes[static_cast<std::size_t>(hit)].normal);
+    }
+    return met;
+  };
+  Rng rng(7);
+  int compared = 0;
+  for (int point = 0; point < 8; ++point) {
+    const Vec3 x(0.02 + 0.36 * rng.uniform(), 0.1 + 0.8 * rng.uniform(),
+                 0.02 + 0.36 * rng.uniform());
+    const MirrorChains chains = mirror_chains(m, x, 4, 100000);
+    ASSERT_EQ(chains.depth, 4);
+    std::vector<int> kept(5, 0), seen_count(5, 0);
+    for (const auto& c : chains.chains) ++kept[static_cast<std::size_t>(c.length)];
+    EXPECT_EQ(kept[1], 4);
+    EXPECT_EQ(kept[2], 12);  // through any wall to any other
+    std::set<std::vector<std::int32_t>> seen;
+    for (int r = 0; r < 20000; ++r) {
+      const double phi = 2.0 * kPi * rng.uniform(), cos_t = 2.0 * rng.uniform() - 1.0;
+      const double sin_t = std::sqrt(1.0 - cos_t * cos_t);
+      const std::vector<std::int32_t> met =
+          trace(x, Vec3(sin_t * std::cos(phi), cos_t, sin_t * std::sin(phi)), 4);
+      std::int32_t at = -1;
+      for (std::size_t k = 0; k < met.size(); ++k) {
+        at = chains.next(at, met[k]);
+        ASSERT_GE(at, 0) << "a path through " << k + 1 << " walls is no chain kept";
+        if (seen.insert(std::vector<std::int32_t>(met.begin(), met.begin() + k + 1)).second)
+          ++seen_count[k + 1];
+      }
+    }
+    std::printf("chains from point %d: kept %d %d %d %d, met by rays %d %d %d %d\n", point, kept[1],
+                kept[2], kept[3], kept[4], seen_count[1], seen_count[2], seen_count[3],
+                seen_count[4]);
+    EXPECT_LT(kept[3], 36);
+    for (int n = 1; n <= 4; ++n)  // no chain kept that no ray takes (4, 12, 24, 40)
+      EXPECT_EQ(kept[static_cast<std::size_t>(n)], seen_count[static_cast<std::size_t>(n)]) << n;
+    compared += seen_count[4];
+  }
+  EXPECT_GT(compared, 8 * 20);
+}
+
+// The budget keeps whole levels: every chain up to the depth kept, none beyond, and no more
+// chains of two or more than the budget; two facing mirrors alone give one chain a plane and
+// length, back and forth.
+TEST(MirrorChains, BudgetKeepsWholeLevels) {
+  const std::vector<Material> mirror{Material::mirror("mirror", Rgb(0.9, 0.9, 0.9))};
+  const auto room = [&](int walls) {
+    const std::vector<Vec3> square{{0, 0, 0}, {0.4, 0, 0}, {0.4, 0, 0.4}, {0, 0, 0.4}};
+    std::vector<Patch> patches;
+    for (const int k : walls == 2 ? std::vector<int>{0, 2} : std::vector<int>{0, 1, 2, 3}) {
+      const Vec3 a = square[static_cast<std::size_t>(k)],
+                 b = square[static_cast<std::size_t>((k + 1) % 4)];
+      Patch p = test::make_quad(a, b, b + Vec3(0, 1, 0), a + Vec3(0, 1, 0));
+      if (p.normal.dot(Vec3(0.2, 0.5, 0.2) - p.centroid) < 0.0)
+        p = test::make_quad(b, a, a + Vec3(0, 1, 0), b + Vec3(0, 1, 0));
+      patches.push_back(p);
+    }
+    return mirror_planes(test::make_patch_set(std::move(patches)), mirror, true);
+  };
+  const Vec3 x(0.13, 0.3, 0.21);
+  const MirrorPlanes four = room(4);
+  const MirrorChains all = mirror_chains(four, x, 8, 1000000);
+  ASSERT_EQ(all.depth, 8);
+  const auto count = [](const MirrorChains& c, int up_to) {
+    return std::count_if(c.chains.begin(), c.chains.end(),
+                         [&](const auto& k) { return k.length >= 2 && k.length <= up_to; });
+  };
+  for (std::size_t budget : {10u, 40u, 100u, 400u}) {
+    const MirrorChains some = mirror_chains(four, x, 8, budget);
+    EXPECT_LE(count(some, 8), static_cast<long>(budget));
+    EXPECT_EQ(count(some, 8), count(all, some.depth));  // whole levels
+    if (some.depth < 8) {
+      EXPECT_GT(count(all, some.depth + 1), static_cast<long>(budget));  // the next did not fit
+    }
+  }
+  // Two facing walls: 2 (n - 1) chains of 2 to n, each alternating.
+  const MirrorChains two = mirror_chains(room(2), x, 16, 256);
+  EXPECT_EQ(two.depth, 16);
+  EXPECT_EQ(count(two, 16), 2 * 15);
+  std::array<std::int32_t, 16> planes{};
+  for (std::int32_t at = 0; at < static_cast<std::int32_t>(two.chains.size()); ++at) {
+    two.planes_of(at, planes.data());
+    for (int k = 1; k < two.chains[static_cast<std::size_t>(at)].length; ++k)
+      EXPECT_NE(planes[static_cast<std::size_t>(k)], planes[static_cast<std::size_t>(k - 1)]);
+  }
 }
 
 // ---- facing mirrors: the floor's light is the sum over the lamp's images ---------------------

@@ -47,6 +47,28 @@ void find_facing(MirrorPlanes& m, const PatchSet& patches, double ahead) {
         m.planes[a].facing.push_back(static_cast<std::int32_t>(b));
 }
 
+// Each plane's window: the hull of its patches' corners in its coordinates, each corner moved
+// `grow` further from the hull's centre.
+void find_windows(MirrorPlanes& m, const PatchSet& patches, double grow) {
+  std::vector<std::vector<Vec2>> corners(m.planes.size());
+  for (std::size_t p = 0; p < patches.size(); ++p)
+    if (m.plane_of[p] >= 0) {
+      const auto q = static_cast<std::size_t>(m.plane_of[p]);
+      for (const Vec3& corner : patches[p].corner) corners[q].push_back(m.planes[q].coords(corner));
+    }
+  for (std::size_t q = 0; q < m.planes.size(); ++q) {
+    std::vector<Vec2> hull = convex_hull(std::move(corners[q]));
+    Vec2 centre = Vec2::Zero();
+    for (const Vec2& c : hull) centre += c;
+    centre /= std::max<double>(1.0, static_cast<double>(hull.size()));
+    for (Vec2& c : hull) {
+      const double r = (c - centre).norm();
+      if (r > 0.0) c += (grow / r) * (c - centre);
+    }
+    m.planes[q].window = std::move(hull);
+  }
+}
+
 }  // namespace
 
 MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>& materials,
@@ -69,8 +91,15 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
           std::abs(m.planes[q].offset - offset) <= close)
         break;
     if (q == m.planes.size()) {
-      m.planes.push_back(
-          {patch.normal, offset, patch.centroid, patch.centroid, mat.specular, true, {}});
+      MirrorPlanes::Plane plane;
+      plane.normal = patch.normal;
+      plane.offset = offset;
+      plane.lo = plane.hi = patch.centroid;
+      plane.specular = mat.specular;
+      const Frame frame = Frame::from_normal(patch.normal);
+      plane.u = frame.s;
+      plane.v = frame.t;
+      m.planes.push_back(std::move(plane));
       owner.emplace_back(patch.object, patch.material);
     }
     MirrorPlanes::Plane& plane = m.planes[q];
@@ -83,10 +112,12 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
   // Grown so that a crossing computed on the plane is not lost to rounding at its edges (the ray
   // decides whether the mirror is met).
   const double grow = 1e-6 * patches.scene_diameter;
+  m.grow = grow;
   for (auto& plane : m.planes) {
     plane.lo.array() -= grow;
     plane.hi.array() += grow;
   }
+  find_windows(m, patches, grow);
   for (std::size_t p = 0; p < patches.size(); ++p)
     if (m.plane_of[p] >= 0 &&
         (patches[p].emitter || materials[patches[p].material].diffuse.maxCoeff() > 0.0))

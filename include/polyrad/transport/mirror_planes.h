@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "polyrad/geometry/convex_polygon.h"
 #include "polyrad/geometry/mesher.h"
 #include "polyrad/raycast/ray_caster.h"
 #include "polyrad/scene/brdf.h"
@@ -52,7 +53,13 @@ struct MirrorPlanes {
     // front of this plane, and a corner of one of this one's in front of it (two mirrors that
     // face each other; no two faces of a convex mirror do).
     std::vector<std::int32_t> facing;
+    // Coordinates in the plane (u, v, normal orthonormal), and its window: the convex hull of its
+    // patches' corners there, grown by a little (the beams of transport/mirror_chains.h).
+    Vec3 u, v;
+    std::vector<Vec2> window;
 
+    Vec2 coords(const Vec3& p) const { return Vec2(u.dot(p), v.dot(p)); }
+    Vec3 point(const Vec2& c) const { return c.x() * u + c.y() * v + offset * normal; }
     double height(const Vec3& x) const { return normal.dot(x) - offset; }
     Vec3 image(const Vec3& x) const { return x - 2.0 * height(x) * normal; }
     bool in_box(const Vec3& p) const {
@@ -61,6 +68,7 @@ struct MirrorPlanes {
   };
   std::vector<Plane> planes;
   std::vector<std::int32_t> plane_of;  // per patch: its plane, -1 if not a mirror
+  double grow = 0.0;  // how far the boxes and windows reach past the patches (against rounding)
   bool empty() const { return planes.empty(); }
 
   // Whether y on patch py is seen from x on patch px in plane q (both in front of it): the
