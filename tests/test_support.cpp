@@ -176,6 +176,28 @@ Scene facing_mirrors_black() {
   return scene;
 }
 
+Scene mirrored_room() {
+  Scene scene = load_scene(scene_path("stability/mirrored-room"));
+  scene.camera.width = scene.camera.height = 8;
+  return scene;
+}
+
+double mirrored_room_floor_radiance(const Vec3& x) {
+  constexpr int kImages = 60;  // 0.9^60 = 2e-3 of a term that is itself far
+  double sum = 0.0;
+  for (int i = -kImages; i <= kImages; ++i)
+    for (int j = -kImages + std::abs(i); j <= kImages - std::abs(i); ++j) {
+      const double x0 = 0.15 + 0.4 * i, z0 = 0.15 + 0.4 * j;
+      const std::vector<Vec3> lamp{{x0, 0.999, z0},
+                                   {x0 + 0.1, 0.999, z0},
+                                   {x0 + 0.1, 0.999, z0 + 0.1},
+                                   {x0, 0.999, z0 + 0.1}};
+      sum += std::pow(0.9, std::abs(i) + std::abs(j)) *
+             std::abs(point_to_polygon_form_factor(x, Vec3(0, 1, 0), lamp));
+    }
+  return 0.9 * sum;
+}
+
 double facing_mirrors_floor_radiance(const Vec3& x) {
   constexpr int kImages = 150;
   double sum = 0.0;

@@ -105,6 +105,15 @@ double facing_mirrors_floor_radiance(const Vec3& x);
 // 2.5e-5).
 double facing_mirrors_floor_mean();
 
+// scenes/stability/mirrored-room: a room 0.4 x 0.4 x 1 whose four walls are mirrors of 0.9, its
+// floor white (0.9), its ceiling black but for a lamp 0.1 square in the middle, seen from above
+// (8 x 8 pixels, all floor). Unfolded through the walls the lamp's images fill a lattice, the
+// (i, j)-th moved by (0.4 i, 0.4 j) after |i| + |j| reflections (the lamp is centred, so an image
+// mirrored in place is the same square): the floor's radiance is
+// L(x) = 0.9 sum_ij 0.9^(|i| + |j|) F(x -> lamp_ij) exactly (scripts/mirrored_room_exact.py).
+Scene mirrored_room();
+double mirrored_room_floor_radiance(const Vec3& x);
+
 // The form factor of two directly opposed parallel a x b rectangles at distance c
 // (papers/glossy-radiosity.md, section 10) and of perpendicular rectangles sharing an edge of
 // length l, from the w-side to the h-side.

@@ -212,6 +212,12 @@ void GatherFlags::add(CLI::App& app) {
                  "from the mesh)" +
                      final_only(final.mirror_image_depth))
       ->check(CLI::Range(1, 64));
+  app.add_option("--mirror-chains", mirror_chain_budget,
+                 "Final gather: the most chains of two or more facing mirrors drawn from a hit, "
+                 "whole lengths at a time up to --mirror-image-depth (three or more mirrors that "
+                 "face each other have many; longer chains stay on the links; 0: one mirror)" +
+                     final_only(final.mirror_chain_budget))
+      ->check(CLI::Range(0, 1000000));
   add_enum_option(app, "--through-mirrors", through_mirrors,
                   "Final gather: where a cosine sample or a point on the reflectors meets a "
                   "mirror, follow it through the mirror to what it shows: where the mirror "
@@ -261,6 +267,7 @@ GatherOptions GatherFlags::options() const {
   if (reflector_samples >= 0) o.reflector_samples = reflector_samples;
   if (mirror_image_samples >= 0) o.mirror_image_samples = mirror_image_samples;
   if (mirror_image_depth > 0) o.mirror_image_depth = mirror_image_depth;
+  if (mirror_chain_budget >= 0) o.mirror_chain_budget = mirror_chain_budget;
   o.through_mirrors = through_mirrors;
   if (near_distance >= 0.0) o.near_distance = near_distance;
   if (mesh_near_distance >= 0.0) o.mesh_near_distance = mesh_near_distance;

@@ -75,7 +75,7 @@ struct GatherFlags {
   std::string diffuse, mesh_read;
   int pixel_grid = -1, lobe_samples = -1, light_samples = -1, gather_samples = -1,
       near_samples = -1, reflector_samples = -1, mirror_image_samples = -1, mesh_near_samples = -1,
-      mirror_image_depth = -1;
+      mirror_image_depth = -1, mirror_chain_budget = -1;
   double near_distance = -1.0, mesh_near_distance = -1.0;
   ThroughMirrors through_mirrors = ThroughMirrors::kImaged;
   void add(CLI::App& app);

@@ -70,6 +70,7 @@ void write_json(JsonWriter& w, std::string_view key, const GatherOptions& o) {
       .value("reflector_samples", o.reflector_samples)
       .value("mirror_image_samples", o.mirror_image_samples)
       .value("mirror_image_depth", o.mirror_image_depth)
+      .value("mirror_chain_budget", o.mirror_chain_budget)
       .value("through_mirrors", enum_name(o.through_mirrors))
       .value("indirect", enum_name(o.indirect))
       .value("mesh_near_distance", o.mesh_near_distance)
@@ -113,6 +114,10 @@ GatherOptions read_gather_options(const JsonValue& v) {
     // Written before the images went through more than one mirror: one.
     if (r.has("mirror_image_depth"))
       o.mirror_image_depth = static_cast<int>(r.integer("mirror_image_depth", 1, 64));
+    // Written before the chains went past two planes that take turns: the default (with two
+    // facing mirrors the same chains; among three or more, those files drew fewer).
+    if (r.has("mirror_chain_budget"))
+      o.mirror_chain_budget = static_cast<int>(r.integer("mirror_chain_budget", 0, 1000000));
     if (r.has("through_mirrors"))
       o.through_mirrors = read_enum<ThroughMirrors>(r, "through_mirrors");
     // Written before the indirect light could come from the mesh: from rays.

@@ -330,6 +330,8 @@ class GatherRows {
       throw InputError("final gather: mirror_image_samples must not be negative");
     if (options.mirror_image_depth < 1 || options.mirror_image_depth > 64)
       throw InputError("final gather: mirror_image_depth must be in [1, 64]");
+    if (options.mirror_chain_budget < 0)
+      throw InputError("final gather: mirror_chain_budget must not be negative");
     if (!(options.mesh_near_distance >= 0.0 && options.mesh_near_distance < 1e300))
       throw InputError("final gather: mesh_near_distance must be finite and not negative");
     if (options.mesh_near_samples < 1)

@@ -24,7 +24,7 @@
 // With mirror_image_samples, the lamps' light that a planar mirror reflects to the point is taken
 // from the lamps' images behind the mirrors' planes (mirror_images), and the diffuse part's reads
 // of a mirror's links leave that part out (subtract_mirrored_lights); with mirror_image_depth,
-// through chains of facing mirrors too (mirror_chains).
+// through chains of facing mirrors too (mirror_chains; which chains: transport/mirror_chains.h).
 // With through_mirrors, a cosine sample or reflector point that meets a delta mirror (kImaged:
 // one whose images are drawn, where no reflector points are) reads no link there: it follows its
 // ray through the mirror and reads what the mirrored ray meets (through_mirror); the lamps'
@@ -44,6 +44,7 @@
 
 #include "gather_terms.h"
 #include "polyrad/transport/hierarchy.h"
+#include "polyrad/transport/mirror_chains.h"
 #include "polyrad/util/sampling.h"
 
 namespace polyrad::gather_detail {
@@ -192,6 +193,8 @@ class FinalGatherer {
     Rgb weight;  // the mirrors' reflectances along the chain (gather() scales the whole ray)
     SubPixel sub;
     double u, v;  // the point on patch i
+    // The chains of facing mirrors from x (mirror_chains): the images' and the reads' through them.
+    const MirrorChains* chains;
   };
   // At most four: stratum() keys its hash by pixel * 4 + strategy.
   enum Strategy { kLightPoints = 0, kCosine = 1, kLobe = 2, kReflectorPoints = 3 };
@@ -349,8 +352,15 @@ class FinalGatherer {
       *key = add_to_key(*key, p.object);
       const Material& m = c_.materials[p.material];
       const Frame frame = Frame::from_normal(p.normal);
+      // Only where the diffuse part draws mirror images (shade(), mirror_images).
+      const bool chained =
+          chain_depth_ > 1 && o_.mirror_chain_budget > 0 && m.diffuse.maxCoeff() > 0.0;
+      const MirrorChains chains =
+          chained ? polyrad::mirror_chains(c_.mirrors, hit.position, chain_depth_,
+                                           static_cast<std::size_t>(o_.mirror_chain_budget))
+                  : MirrorChains{};
       const Shading sh{hit.patch, m,   frame, hit.position, frame.to_local(-dir),
-                       weight,    sub, hit.u, hit.v};
+                       weight,    sub, hit.u, hit.v,        &chains};
       if (sh.wo.z() > 0.0) rays += shade(sh, rng, terms);
       if (depth >= o_.mirror_depth || !m.has_lobe() || !m.is_delta()) {
         if (depth >= o_.mirror_depth && m.has_lobe() && m.is_delta())
@@ -425,38 +435,31 @@ class FinalGatherer {
       for (std::int32_t q = 0; q < static_cast<std::int32_t>(c_.mirrors.planes.size()); ++q)
         rays += chain_image(sh, l, &q, 1, wd, terms);
     }
-    if (chain_depth_ > 1)
-      for (std::int32_t q = 0; q < static_cast<std::int32_t>(c_.mirrors.planes.size()); ++q)
-        rays += mirror_chains(sh, q, rng, terms);
+    if (sh.chains) rays += mirror_chains(sh, rng, terms);
     return rays;
   }
 
-  // The chains back and forth between mirror plane a, which x faces, and each plane b that faces
-  // it, a b a b ..., from 2 up to chain_depth_ mirrors, each after the first without a diffuse
-  // part or light: a chain of n mirrors drawn with mirror_image_samples / n^2 light points of
-  // its own, at least one (a lamp seen through many mirrors is far and small, and each of its
-  // points costs n + 1 rays). Only two planes take turns, so there is one chain a pair of facing
-  // planes at each length; among three or more that face each other (mirrors on a room's four
-  // walls) every sequence of planes would be a chain to try, 3^n of them, nearly all of them no
-  // path. What meets a third mirror stays on the links.
-  long long mirror_chains(const Shading& sh, std::int32_t a, Rng& rng, PixelTerms& terms) const {
-    const auto& planes = c_.mirrors.planes;
-    if (!(planes[static_cast<std::size_t>(a)].height(sh.x) > 0.0)) return 0;
+  // The chains of facing mirrors from x (sh.chains, transport/mirror_chains.h): each of n >= 2
+  // mirrors, those after the first without a diffuse part or light, drawn with
+  // mirror_image_samples / n^2 light points of its own, at least one (a lamp seen through many
+  // mirrors is far and small, and each of its points costs n + 1 rays), cast only where the
+  // point's image lies in the chain's beam. Chains longer than the budget holds
+  // (GatherOptions::mirror_chain_budget), or in a scene of more than kMaxFacingPlanes planes,
+  // leave their light to the links.
+  long long mirror_chains(const Shading& sh, Rng& rng, PixelTerms& terms) const {
+    const MirrorChains& chains = *sh.chains;
     long long rays = 0;
     std::array<std::int32_t, 64> chain{};
-    chain[0] = a;
-    for (const std::int32_t b : planes[static_cast<std::size_t>(a)].facing) {
-      for (int n = 1; n < chain_depth_; ++n) {
-        const std::int32_t next = n % 2 == 1 ? b : a;
-        if (!planes[static_cast<std::size_t>(next)].pure) break;
-        chain[static_cast<std::size_t>(n)] = next;
-        const int count = std::max(1, mirror_count_ / ((n + 1) * (n + 1)));
-        const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
-        for (int s = 0; s < count; ++s) {
-          const double j1 = rng.uniform32(), j2 = rng.uniform32();
-          const LightSample l = c_.lights.sample(Vec2(j1, j2));
-          if (l.area_pdf > 0.0) rays += chain_image(sh, l, chain.data(), n + 1, wd, terms);
-        }
+    for (std::int32_t at = chains.roots; at < static_cast<std::int32_t>(chains.chains.size());
+         ++at) {
+      const int n = chains.chains[static_cast<std::size_t>(at)].length;
+      chains.planes_of(at, chain.data());
+      const int count = std::max(1, mirror_count_ / (n * n));
+      const Rgb wd = sh.weight * sh.m.diffuse * (kInvPi / count);
+      for (int s = 0; s < count; ++s) {
+        const double j1 = rng.uniform32(), j2 = rng.uniform32();
+        const LightSample l = c_.lights.sample(Vec2(j1, j2));
+        if (l.area_pdf > 0.0) rays += chain_image(sh, l, chain.data(), n, wd, terms, at);
       }
     }
     return rays;
@@ -467,9 +470,10 @@ class FinalGatherer {
   // all, l' = R_0(R_1(...R_{n-1}(l))), d s_0...s_{n-1} Le cos_x cos_l / (pi |x - l'|^2 pdf_A),
   // where the segment to l' crosses the first plane inside its box, a ray from x meets each
   // plane in turn and a shadow ray from the last reaches l (a path through the mirrors has that
-  // length and those cosines). With n = 1 the image in one mirror (mirror_images).
+  // length and those cosines). With n = 1 the image in one mirror (mirror_images); with a chain
+  // of sh.chains (`kept`), the crossing must lie in its beam too, or no ray is cast.
   long long chain_image(const Shading& sh, const LightSample& l, const std::int32_t* chain, int n,
-                        const Rgb& wd, PixelTerms& terms) const {
+                        const Rgb& wd, PixelTerms& terms, std::int32_t kept = -1) const {
     const auto plane = [&](int t) -> const MirrorPlanes::Plane& {
       return c_.mirrors.planes[static_cast<std::size_t>(chain[t])];
     };
@@ -484,6 +488,7 @@ class FinalGatherer {
     const Vec3 image = inner - 2.0 * hp * plane(0).normal;
     const Vec3 y = sh.x + (hx / (hx + hp)) * (image - sh.x);
     if (!plane(0).in_box(y)) return 0;
+    if (kept >= 0 && !sh.chains->in_beam(kept, plane(0).coords(y))) return 0;
     const Vec3 to = image - sh.x;
     const double dist2 = to.squaredNorm();
     const Vec3 wi = to / std::sqrt(dist2);
@@ -583,7 +588,7 @@ class FinalGatherer {
   long long read_specular(const Shading& sh, PatchId j, const Vec3& p, const Vec3& dir,
                           const Rgb& w, bool diffuse, Rng& rng, PixelTerms& terms) const {
     if (diffuse && (passes_through(j) || imaged_by_links(j, sh.i)))
-      return through_mirror(sh.x, j, p, dir, w, rng, terms, imaged(j), true);
+      return through_mirror(sh.x, j, p, dir, w, rng, terms, imaged(j), true, sh.chains);
     const Rgbf wl = scaled(w, 1.0);
     add_link(j, sh.i, wl, terms);
     if (diffuse) subtract_mirrored_lights(j, sh.i, wl, terms);
@@ -597,16 +602,6 @@ class FinalGatherer {
     if (o_.through_mirrors == ThroughMirrors::kImaged && !imaged(j)) return false;
     const Material& m = c_.materials[c_.patches[j].material];
     return m.has_lobe() && m.is_delta();
-  }
-  // Whether a ray through m mirrors, in planes a b a b ... (b < 0 while m is 1), that meets
-  // patch k goes on through it, as the chains of images do (mirror_chains): k a mirror without a
-  // diffuse part or light, in a plane that faces a (the second mirror), or the chain's next.
-  bool chains_on(std::int32_t a, std::int32_t b, int m, PatchId k) const {
-    const std::int32_t q = c_.mirrors.plane_of[k];
-    if (q < 0 || !c_.mirrors.planes[static_cast<std::size_t>(q)].pure) return false;
-    if (m > 1) return q == (m % 2 == 0 ? a : b);
-    const auto& facing = c_.mirrors.planes[static_cast<std::size_t>(a)].facing;
-    return std::find(facing.begin(), facing.end(), q) != facing.end();
   }
   // Whether the mirror images gave a diffuse part the lamps' light that mirror j reflects.
   bool imaged(PatchId j) const { return mirror_count_ > 0 && c_.mirrors.plane_of[j] >= 0; }
@@ -627,25 +622,26 @@ class FinalGatherer {
   // the link S_{k->j}. The mirror's link S_{j->i} is one value per pair of patches (of roots, on
   // a hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
   //
-  // With images, the ray follows on through up to chain_depth_ mirrors in all, each a mirror
-  // the chains of images pass (a facing one without a diffuse part, no light), and reads where
-  // it leaves them; a lamp met there is the images'.
+  // With images, the ray follows on through the mirrors while the planes it meets are a chain
+  // the images draw (`chains`, from x: each a facing one without a diffuse part, no light, up
+  // to the budget's length), and reads where it leaves them; a lamp met there is the images'.
   long long through_mirror(const Vec3& x, PatchId j, Vec3 p, const Vec3& dir, const Rgb& w,
-                           Rng& rng, PixelTerms& terms, bool images, bool deeper) const {
+                           Rng& rng, PixelTerms& terms, bool images, bool deeper,
+                           const MirrorChains* chains = nullptr) const {
     Rgb ws = w * c_.materials[c_.patches[j].material].specular;
     Vec3 out = reflect_in_plane(dir, c_.patches[j].normal);
     double behind = (p - x).norm();  // the path's length from x to the last mirror
     long long rays = 1;
     Hit z = c_.caster.intersect_from(p, j, out);
-    // The chain's two planes, as mirror_chains draws them: a b a b ...
-    const std::int32_t a = images ? c_.mirrors.plane_of[j] : -1;
-    std::int32_t b = -1;
-    for (int m = 1;
-         images && m < chain_depth_ && z.valid() && z.front && chains_on(a, b, m, z.patch); ++m) {
+    // The chain of facing mirrors the ray has passed, as mirror_chains draws them.
+    std::int32_t chain = images && chains ? chains->next(-1, c_.mirrors.plane_of[j]) : -1;
+    while (chain >= 0 && z.valid() && z.front) {
+      const std::int32_t q = c_.mirrors.plane_of[z.patch];
+      chain = q >= 0 ? chains->next(chain, q) : -1;
+      if (chain < 0) break;
       behind += z.t;
       p = z.position;
       j = z.patch;
-      if (m == 1) b = c_.mirrors.plane_of[j];
       ws *= c_.materials[c_.patches[j].material].specular;
       out = reflect_in_plane(out, c_.patches[j].normal);
       z = c_.caster.intersect_from(p, j, out);
