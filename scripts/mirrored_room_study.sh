@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The final gather in a room of four mirror walls, each facing the other three: the lamps drawn at
+# their images through the chains of walls whose beams are not empty, as many as
+# --mirror-chains N allows (whole lengths at a time), against the exact image
+# (scenes/stability/mirrored-room.json, whose floor's light is the sum over the lattice of the
+# lamp's images: scripts/mirrored_room_exact.py).
+#
+#   ./scripts/mirrored_room_study.sh [DIR]
+#     DIR  output (default out/mirrored-room): per budget N, chains-N.pfm and its report;
+#          exact.pfm; mirrored-room.md, the table
+# $POLYRAD names the binary (default: a Release build through scripts/build.sh); $BUDGETS the
+# budgets (default "0 64 128 256 512 1024"; 0: one mirror, as --mirror-image-depth 1).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="${1:-out/mirrored-room}"
+scene="$root/scenes/stability/mirrored-room.json"
+exact="$root/scripts/mirrored_room_exact.py"
+if [ -z "${POLYRAD:-}" ]; then
+  "$root/scripts/deps.sh"
+  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
+fi
+mkdir -p "$out"
+[ -f "$out/exact.pfm" ] || /usr/bin/python3 "$exact" exact "$out/exact.pfm" "$out/mask.json"
+table="$out/mirrored-room.md"
+{
+  echo "| \`--mirror-chains\` | wall (s) | gather rays | against the exact image |"
+  echo "|---|---|---|---|"
+} > "$table"
+for budget in ${BUDGETS:-0 64 128 256 512 1024}; do
+  base="$out/chains-$budget"
+  /usr/bin/time -f "%e" -o "$base.wall" "$POLYRAD" --quiet render "$scene" \
+    --mirror-chains "$budget" -o "$base.pfm" --report "$base.json"
+  rays=$(/usr/bin/python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['gather']['rays'])" \
+    "$base.json")
+  echo "| $budget | $(tail -n 1 "$base.wall") | $rays | $(/usr/bin/python3 "$exact" compare \
+    "$base.pfm" "$out/exact.pfm" "$out/mask.json") |" >> "$table"
+done
+cat "$table"
