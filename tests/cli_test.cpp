@@ -34,6 +34,33 @@ size_t lines(const std::string& s) {
   return n;
 }
 
+// Where the chain budget cuts the chains of facing mirrors short, the report counts the hits and
+// warns, on stderr too; where it holds them all, neither.
+TEST(Cli, RenderWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
+  auto dir = test::temp_dir();
+  const std::string img = (dir / "m.pfm").string(), rep = (dir / "m.json").string();
+  const std::string render = "render " + test::scene_path("stability/mirrored-room") + " -o " +
+                             img + " --report " + rep + kQuickGather;
+  CommandRun r = run(render + " --mirror-chains 64");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("raise --mirror-chains"), std::string::npos) << r.err;
+  JsonValue report = test::read_json(rep);
+  const JsonValue* chains = report.find("gather")->find("mirror_chains");
+  ASSERT_NE(chains, nullptr);
+  EXPECT_GT(chains->find("hits")->number, 0.0);
+  EXPECT_EQ(chains->find("hits_cut")->number, chains->find("hits")->number);
+  const JsonValue* warnings = report.find("warnings");
+  ASSERT_EQ(warnings->array.size(), 1u);
+  EXPECT_EQ(warnings->array[0].find("kind")->string, "mirror_chains_cut_by_budget");
+  r = run(render + " --mirror-chains 100000 --mirror-image-depth 3");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  report = test::read_json(rep);
+  EXPECT_EQ(report.find("gather")->find("mirror_chains")->find("hits_cut")->number, 0.0);
+  EXPECT_TRUE(report.find("warnings")->array.empty());
+  EXPECT_EQ(run(render + " --mirror-chains -1").code, 2);
+}
+
 TEST(Cli, RenderWritesImageReportAndPatchTable) {
   auto dir = test::temp_dir();
   std::string img = (dir / "cb.pfm").string(), rep = (dir / "r.json").string(),

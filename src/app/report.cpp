@@ -11,8 +11,24 @@
 namespace polyrad {
 
 GatherSummary summarize(const Gather& g, const GatherWork& work) {
-  if (g.deferred) return {g.options, work.rays, work.nnz, work.bytes, work.seconds};
-  return {g.options, g.rays, static_cast<long long>(g.g.nnz() + g.e.nnz()), g.bytes(), g.seconds};
+  if (g.deferred)
+    return {g.options, work.rays, work.nnz, work.bytes, work.seconds, work.mirror_chains};
+  return {g.options, g.rays,    static_cast<long long>(g.g.nnz() + g.e.nnz()),
+          g.bytes(), g.seconds, g.mirror_chains};
+}
+
+std::string describe_chain_cut(const GatherSummary& g) {
+  const MirrorChainCount& c = g.mirror_chains;
+  if (c.hits <= 0 || c.cut * 100 < c.hits) return "";
+  char b[400];
+  std::snprintf(b, sizeof b,
+                "at %lld of %lld hits before mirrors that face each other (%.3g%%), "
+                "--mirror-chains %d kept the chains of mirrors only up to %d (of "
+                "--mirror-image-depth %d): the lamps' light through longer chains stays on the "
+                "mirrors' links, which spread it; raise --mirror-chains to take more, at more time",
+                c.cut, c.hits, 100.0 * static_cast<double>(c.cut) / static_cast<double>(c.hits),
+                g.options.mirror_chain_budget, c.shortest_cut, g.options.mirror_image_depth);
+  return b;
 }
 
 double mean_relative_standard_error(const PathTraceResult& r) {
@@ -75,6 +91,15 @@ void write_lobe_warnings(JsonWriter& w, const std::vector<LobeResolution>& lobes
     write_lobe_fields(w, r);
     w.value("message", describe_smear(r)).end_object();
   }
+}
+
+void write_chain_warning(JsonWriter& w, const GatherSummary& g) {
+  const std::string message = describe_chain_cut(g);
+  if (message.empty()) return;
+  w.begin_object().value("kind", "mirror_chains_cut_by_budget");
+  w.value("hits", g.mirror_chains.hits).value("hits_cut", g.mirror_chains.cut);
+  w.value("shortest_chain_kept", g.mirror_chains.shortest_cut);
+  w.value("message", message).end_object();
 }
 
 void write_truncation_warning(JsonWriter& w, const PathTraceSummary& p) {
@@ -256,6 +281,11 @@ void write_gather(JsonWriter& w, const GatherSummary& g) {
   w.begin_object("gather");
   write_json(w, "options", g.options);
   w.value("rays", g.rays).value("nnz", g.nnz).value("bytes", g.bytes).value("seconds", g.seconds);
+  if (g.mirror_chains.hits > 0) {
+    w.begin_object("mirror_chains");
+    w.value("hits", g.mirror_chains.hits).value("hits_cut", g.mirror_chains.cut);
+    w.value("shortest_chain_kept", g.mirror_chains.shortest_cut).end_object();
+  }
   w.end_object();
 }
 
@@ -311,6 +341,7 @@ std::string to_json(const Report& r) {
   w.begin_array("warnings");
   if (r.system) write_lobe_warnings(w, r.system->lobes);
   if (r.pathtrace) write_truncation_warning(w, *r.pathtrace);
+  if (r.gather) write_chain_warning(w, *r.gather);
   w.end_array();
   if (r.system) write_json(w, "system", *r.system);
   if (r.solve) write_json(w, "solve", *r.solve);

@@ -43,6 +43,10 @@ void print_warnings(const std::vector<LobeResolution>& lobes) {
 
 void print_warnings(const Report& report) {
   if (report.system) print_warnings(report.system->lobes);
+  if (report.gather) {
+    const std::string cut = describe_chain_cut(*report.gather);
+    if (!cut.empty()) std::fprintf(stderr, "polyrad: warning: %s\n", cut.c_str());
+  }
   if (!report.pathtrace) return;
   const std::string truncated = describe_truncation(*report.pathtrace);
   if (!truncated.empty()) std::fprintf(stderr, "polyrad: warning: %s\n", truncated.c_str());

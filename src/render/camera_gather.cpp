@@ -383,6 +383,7 @@ class GatherRows {
     std::vector<ThreadScratch> threads;
     CoarseClasses coarse;  // the final gather's, for the block's rows and one more each side
     bool keep_pieces = true;
+    MirrorChainCount chains;  // over every row built with this scratch
   };
 
   // Rows [r0, r1) into g and e (replaced), in parallel over pieces of the range; returns the
@@ -431,6 +432,10 @@ class GatherRows {
         }
         if (progress) progress->advance(end - begin);
       }
+    }
+    for (ThreadScratch& t : scratch.threads) {
+      scratch.chains.add(t.terms.chains);
+      t.terms.chains = {};
     }
     g.clear();
     e.clear();
@@ -595,6 +600,7 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
   GatherRows::Scratch scratch;
   scratch.keep_pieces = false;
   g.rays = rows.build(0, pixels, g.g, g.e, scratch, &progress);
+  g.mirror_chains = scratch.chains;
   progress.finish();
   g.seconds = watch.seconds();
   return g;
@@ -637,6 +643,7 @@ GatherWork for_each_gather_block(
     work.bytes = std::max(work.bytes, g.bytes() + e.bytes());
     f(r0, g, e);
   }
+  work.mirror_chains = scratch.chains;
   progress.finish();
   return work;
 }

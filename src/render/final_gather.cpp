@@ -359,6 +359,8 @@ class FinalGatherer {
           chained ? polyrad::mirror_chains(c_.mirrors, hit.position, chain_depth_,
                                            static_cast<std::size_t>(o_.mirror_chain_budget))
                   : MirrorChains{};
+      if (chained && chains.roots > 0 && frame.to_local(-dir).z() > 0.0)
+        terms.chains.count(chains.cut, chains.depth);
       const Shading sh{hit.patch, m,   frame, hit.position, frame.to_local(-dir),
                        weight,    sub, hit.u, hit.v,        &chains};
       if (sh.wo.z() > 0.0) rays += shade(sh, rng, terms);

@@ -22,6 +22,7 @@ struct Term {
 // One pixel's weights: over the unknowns (G) and over the patches' emission (E).
 struct PixelTerms {
   std::vector<Term> unknowns, emission;
+  MirrorChainCount chains;  // over every pixel gathered into these terms (not cleared)
   void clear() {
     unknowns.clear();
     emission.clear();

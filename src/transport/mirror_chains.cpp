@@ -142,7 +142,11 @@ MirrorChains mirror_chains(const MirrorPlanes& m, const Vec3& x, int max_length,
       }
       children.emplace_back(base + before, static_cast<std::int32_t>(level.size()) - before);
     }
-    if (level.empty() || kept + level.size() > budget) break;
+    if (level.empty()) break;
+    if (kept + level.size() > budget) {
+      out.cut = true;
+      break;
+    }
     for (std::size_t at = begin; at < end; ++at) {
       out.chains[at].first_child = children[at - begin].first;
       out.chains[at].children = children[at - begin].second;

@@ -32,7 +32,12 @@ struct GatherSummary {
   long long rays = 0, nnz = 0;
   std::size_t bytes = 0;
   double seconds = 0.0;
+  MirrorChainCount mirror_chains;
 };
+// Why light through facing mirrors stays on the links where the chain budget cut the chains
+// short (at 1 percent of the hits that face such mirrors or more), or "": on a room of four
+// mirror walls the default budget keeps chains of up to 6 walls, its floor 0.8 percent dark.
+std::string describe_chain_cut(const GatherSummary& g);
 // work: what reading a deferred gather cost (its rows are built where they are read).
 GatherSummary summarize(const Gather& g, const GatherWork& work = {});
 

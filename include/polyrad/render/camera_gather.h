@@ -84,6 +84,7 @@
 // (defer_gather) is never stored whole, its rows are built block by block where they are used.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <memory>
@@ -295,6 +296,21 @@ using Rgbf = std::array<float, 3>;
 
 class GatherRows;
 
+// What a final gather's chains of facing mirrors did (GatherOptions::mirror_chain_budget): the
+// hits in front of a mirror plane that faces another, those where the budget left out longer
+// chains than it kept, and the shortest length kept at such a hit (0 where none was cut).
+struct MirrorChainCount {
+  long long hits = 0, cut = 0;
+  int shortest_cut = 0;
+  void count(bool was_cut, int depth) { add({1, was_cut ? 1 : 0, was_cut ? depth : 0}); }
+  void add(const MirrorChainCount& o) {
+    hits += o.hits;
+    cut += o.cut;
+    if (o.shortest_cut > 0)
+      shortest_cut = shortest_cut > 0 ? std::min(shortest_cut, o.shortest_cut) : o.shortest_cut;
+  }
+};
+
 struct Gather {
   int width = 0, height = 0;
   GatherOptions options;  // what built it
@@ -302,6 +318,7 @@ struct Gather {
   Csr<Rgbf> e;  // final gather: row = pixel, column = patch (its emission); empty otherwise
   long long rays = 0;
   double seconds = 0.0;
+  MirrorChainCount mirror_chains;  // the final gather's, as it was built
   // Set by defer_gather: g and e are not stored, their rows are built where they are used.
   std::shared_ptr<const GatherRows> deferred;
   std::size_t bytes() const { return g.bytes() + e.bytes(); }
@@ -344,6 +361,7 @@ struct GatherWork {
   double seconds = 0.0;   // spent building them
   long long nnz = 0;      // entries of G and E
   std::size_t bytes = 0;  // the most held at once
+  MirrorChainCount mirror_chains;  // the final gather's, over the rows built
 };
 GatherWork for_each_gather_block(
     const Gather& gather, std::int64_t block_pixels,

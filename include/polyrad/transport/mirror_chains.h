@@ -44,6 +44,7 @@ struct MirrorChains {
   std::vector<Vec2> beams;    // each chain's beam, in its first plane's coordinates
   int roots = 0;              // the chains of one plane
   int depth = 0;              // the longest length kept (every chain up to it kept)
+  bool cut = false;           // whether the budget left out the next length's chains
 
   // The chain `at` continued into plane q (at = -1: the chain of plane q alone), or -1.
   std::int32_t next(std::int32_t at, std::int32_t q) const;
