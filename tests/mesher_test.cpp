@@ -212,6 +212,15 @@ TEST(ConvexPolygon, HullIntersectionAndContainment) {
       EXPECT_TRUE(intersect_convex(square(0, 0, a), square(1, 1, b)).empty());  // a corner
       EXPECT_TRUE(intersect_convex(square(0, 0, a), square(3, 0, b)).empty());
     }
+  // A polygon that is not convex, zigzagging across a clipping edge as rounding can make a nearly
+  // flat beam: the clip crosses it at every corner, and what does not fit its buffers is dropped,
+  // never written past them (the sanitizer build watches).
+  std::vector<Vec2> zigzag;
+  for (int k = 0; k <= 40; ++k) zigzag.emplace_back(0.025 * k, k % 2 == 0 ? -1e-3 : 1e-3);
+  zigzag.emplace_back(1.0, 1.0);
+  zigzag.emplace_back(0.0, 1.0);
+  const std::vector<Vec2> clipped = intersect_convex(zigzag, square(0, 0, true));
+  EXPECT_LE(clipped.size(), zigzag.size() + 4 + 4);
 }
 
 }  // namespace polyrad

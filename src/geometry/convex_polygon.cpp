@@ -13,16 +13,19 @@ double cross(const Vec2& a, const Vec2& b, const Vec2& p) {
   return (b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x());
 }
 
-// The part of polygon[0, n) on the left of the line a -> b, into out (room for n + 1 corners);
-// returns its corner count.
-std::size_t clip_left(const Vec2* polygon, std::size_t n, const Vec2& a, const Vec2& b, Vec2* out) {
+// The part of polygon[0, n) on the left of the line a -> b, into out[0, room); returns its
+// corner count. A convex polygon gains at most one corner; one made not quite convex by
+// rounding (corners a hair apart on the line) may cross it more often, and what would not fit
+// is dropped rather than written past the room.
+std::size_t clip_left(const Vec2* polygon, std::size_t n, const Vec2& a, const Vec2& b, Vec2* out,
+                      std::size_t room) {
   std::size_t m = 0;
   for (std::size_t k = 0; k < n; ++k) {
     const Vec2& p = polygon[k];
     const Vec2& q = polygon[(k + 1) % n];
     const double sp = cross(a, b, p), sq = cross(a, b, q);
-    if (sp >= 0.0) out[m++] = p;
-    if ((sp >= 0.0) != (sq >= 0.0)) out[m++] = p + (sp / (sp - sq)) * (q - p);
+    if (sp >= 0.0 && m < room) out[m++] = p;
+    if ((sp >= 0.0) != (sq >= 0.0) && m < room) out[m++] = p + (sp / (sp - sq)) * (q - p);
   }
   return m;
 }
@@ -62,9 +65,9 @@ std::vector<Vec2> convex_hull(std::vector<Vec2> points) {
 std::size_t intersect_convex(std::span<const Vec2> a, std::span<const Vec2> b,
                              std::vector<Vec2>& out) {
   if (a.size() < 3 || b.size() < 3) return 0;
-  // Each clip adds at most one corner: two buffers of a + b corners, in turn (on the stack for
-  // the beams' few corners, which a gather clips at every hit).
-  const std::size_t room = a.size() + b.size() + 1;
+  // Each clip of a convex polygon adds at most one corner: two buffers of a + b corners and
+  // more, in turn (on the stack for the beams' few corners, which a gather clips at every hit).
+  const std::size_t room = a.size() + b.size() + 4;
   std::array<Vec2, 64> stack;
   std::vector<Vec2> heap;
   Vec2* from = stack.data();
@@ -82,7 +85,7 @@ std::size_t intersect_convex(std::span<const Vec2> a, std::span<const Vec2> b,
   for (std::size_t k = 0; k < b.size() && n >= 3; ++k) {
     const Vec2& p = b[k];
     const Vec2& q = b[(k + 1) % b.size()];
-    n = ccw ? clip_left(from, n, p, q, to) : clip_left(from, n, q, p, to);
+    n = ccw ? clip_left(from, n, p, q, to, room) : clip_left(from, n, q, p, to, room);
     std::swap(from, to);
   }
   if (n < 3 || !(twice_signed_area(std::span<const Vec2>(from, n)) > 0.0)) return 0;

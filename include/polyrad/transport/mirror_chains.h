@@ -8,8 +8,10 @@
 // so a chain can carry light only if one line from x passes them all. Seen from x, each unfolded
 // window beyond plane q_0 is projected onto q_0's plane (centrally, from x); the chain's beam is
 // the intersection of those projections with W_0, and a chain whose beam is empty is not kept,
-// nor any chain it begins (nor one no wider than the windows' growth against rounding: a sliver
-// where two walls meet). Among three or more planes that face each other (a room's four mirror
+// nor any chain it begins (nor one no wider than ten times the windows' growth against rounding,
+// 1e-5 of the scene's diameter, measured in the first plane: a sliver where two walls meet; a
+// point nearer the first plane than about that sees its real beams that thin too, and leaves
+// their light to the links). Among three or more planes that face each other (a room's four mirror
 // walls) the chains grow as the square of their length or faster, so they are kept level by
 // level (all of length n, then all of n + 1) while their count stays within a budget.
 //
