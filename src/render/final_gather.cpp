@@ -352,17 +352,16 @@ class FinalGatherer {
       *key = add_to_key(*key, p.object);
       const Material& m = c_.materials[p.material];
       const Frame frame = Frame::from_normal(p.normal);
-      // Only where the diffuse part draws mirror images (shade(), mirror_images).
-      const bool chained =
-          chain_depth_ > 1 && o_.mirror_chain_budget > 0 && m.diffuse.maxCoeff() > 0.0;
+      const Vec3 wo = frame.to_local(-dir);
+      // Only where the diffuse part draws mirror images (shade(), mirror_images), at a front.
+      const bool chained = chain_depth_ > 1 && o_.mirror_chain_budget > 0 &&
+                           m.diffuse.maxCoeff() > 0.0 && wo.z() > 0.0;
       const MirrorChains chains =
           chained ? polyrad::mirror_chains(c_.mirrors, hit.position, chain_depth_,
                                            static_cast<std::size_t>(o_.mirror_chain_budget))
                   : MirrorChains{};
-      if (chained && chains.roots > 0 && frame.to_local(-dir).z() > 0.0)
-        terms.chains.count(chains.cut, chains.depth);
-      const Shading sh{hit.patch, m,   frame, hit.position, frame.to_local(-dir),
-                       weight,    sub, hit.u, hit.v,        &chains};
+      if (chained && chains.roots > 0) terms.chains.count(chains.cut, chains.depth);
+      const Shading sh{hit.patch, m, frame, hit.position, wo, weight, sub, hit.u, hit.v, &chains};
       if (sh.wo.z() > 0.0) rays += shade(sh, rng, terms);
       if (depth >= o_.mirror_depth || !m.has_lobe() || !m.is_delta()) {
         if (depth >= o_.mirror_depth && m.has_lobe() && m.is_delta())
