@@ -61,6 +61,30 @@ TEST(Cli, RenderWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
   EXPECT_EQ(run(render + " --mirror-chains -1").code, 2);
 }
 
+// The precompute builds the same gather behind its view rows, so it counts and warns as render
+// does.
+TEST(Cli, PrecomputeWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
+  auto dir = test::temp_dir();
+  const std::string scene = test::scene_path("stability/mirrored-room");
+  const std::string view = (dir / "v.prt").string();
+  const std::string rep = (dir / "p.json").string(), img = (dir / "r.pfm").string();
+  const std::string cut = " --order 8 --mirror-chains 64" + kQuickGather;
+  CommandRun r =
+      run("precompute " + scene + " -o " + view + " --output view --report " + rep + cut);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("raise --mirror-chains"), std::string::npos) << r.err;
+  JsonValue report = test::read_json(rep);
+  const JsonValue* chains = report.find("gather")->find("mirror_chains");
+  ASSERT_NE(chains, nullptr);
+  EXPECT_GT(chains->find("hits_cut")->number, 0.0);
+  EXPECT_EQ(report.find("warnings")->array.size(), 1u);
+  // A view operator's rows hold the gather: relighting it builds none and says nothing of it.
+  r = run("relight " + view + " -o " + img + " --report " + rep);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  EXPECT_EQ(test::read_json(rep).find("gather"), nullptr);
+}
+
 TEST(Cli, RenderWritesImageReportAndPatchTable) {
   auto dir = test::temp_dir();
   std::string img = (dir / "cb.pfm").string(), rep = (dir / "r.json").string(),

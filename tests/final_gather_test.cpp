@@ -1013,7 +1013,7 @@ TEST(FinalGather, RelightIsRenderWithTheSameGather) {
   SeriesOperator view = precompute(*sys, &deferred, SeriesOutput::kView, 9);
   SeriesOperator solution = precompute(*sys, nullptr, SeriesOutput::kSolution, 9);
   EXPECT_EQ(view.gather.kind, GatherKind::kFinal);
-  EXPECT_GT(view.report.gather_seconds, 0.0);
+  EXPECT_GT(view.report.gather.seconds, 0.0);
   expect_relight_is_render(*sys, view, solution, stored);
   // The folded operator is one matrix: twice the light, twice the image.
   std::vector<float> e = view.column_emission(), e2 = e;

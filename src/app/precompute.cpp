@@ -88,8 +88,10 @@ PrecomputeResult precompute(const std::string& scene_path, const PrecomputeOptio
   rep.system = sys->summary();
   rep.series = q;
   rep.seconds.insert(rep.seconds.end(), sys->times.begin(), sys->times.end());
-  if (q.output == SeriesOutput::kView)
-    rep.seconds.push_back({"gather_build", q.report.gather_seconds});
+  if (q.output == SeriesOutput::kView) {
+    rep.gather = summarize(q.gather, q.report.gather);
+    rep.seconds.push_back({"gather_build", q.report.gather.seconds});
+  }
   rep.seconds.push_back({"series", q.report.seconds});
   rep.seconds.push_back({"total", watch.seconds()});
   rep.finish();

@@ -115,6 +115,7 @@ Relit Relighter::relight(const std::map<std::string, Rgb>& emission, const Orbit
     r.product_seconds = time_seconds([&] { q_.apply(e.data(), out.data()); });
     Stopwatch watch;
     std::shared_ptr<const Gather> g = views_->gather(orbit, &r.gather_built);
+    r.gather = summarize(*g);
     const World& world = *views_->world;
     r.image = apply_gather(*g, series_field(q_, out),
                            patch_emission(q_, e, world.patches(), world.scene()));
@@ -148,6 +149,7 @@ RelightResult relight(const std::string& prt_path, const RelightOptions& o) {
   rep.overrides = q.overrides;
   rep.series = q;
   rep.relight = s;
+  rep.gather = relit.gather;
   rep.seconds = {{"load", relighter.load_seconds()},
                  {"product", s.product.median},
                  {"gather", relit.gather_seconds},

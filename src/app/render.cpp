@@ -102,7 +102,8 @@ void render_series(RenderResult& r, const SeriesOptions& so, const SystemOptions
   rep.system = sys->summary();
   rep.series = q;
   rep.seconds.insert(rep.seconds.end(), sys->times.begin(), sys->times.end());
-  rep.seconds.push_back({"gather_build", q.report.gather_seconds});
+  rep.gather = summarize(q.gather, q.report.gather);
+  rep.seconds.push_back({"gather_build", q.report.gather.seconds});
   rep.seconds.push_back({"series", q.report.seconds});
   rep.seconds.push_back({"product", product_seconds});
 }

@@ -10,11 +10,12 @@
 
 namespace polyrad {
 
+GatherSummary summarize(const GatherOptions& options, const GatherWork& cost) {
+  return {options, cost.rays, cost.nnz, cost.bytes, cost.seconds, cost.mirror_chains};
+}
+
 GatherSummary summarize(const Gather& g, const GatherWork& work) {
-  if (g.deferred)
-    return {g.options, work.rays, work.nnz, work.bytes, work.seconds, work.mirror_chains};
-  return {g.options, g.rays,    static_cast<long long>(g.g.nnz() + g.e.nnz()),
-          g.bytes(), g.seconds, g.mirror_chains};
+  return summarize(g.options, gather_cost(g, work));
 }
 
 std::string describe_chain_cut(const GatherSummary& g) {

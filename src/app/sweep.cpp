@@ -176,6 +176,9 @@ void sweep_discretisation(const SweepOptions& f, const Scene& scene, const Discr
   const World& world = *sys->world;
   const auto direct = mesh_direct_for(f.gather, t, world);
   const Gather gather = build_gather(world, t.layout(), f.gather, direct.get());
+  const std::string cut = describe_chain_cut(summarize(gather));
+  if (!cut.empty())
+    std::fprintf(stderr, "polyrad sweep: warning: %s: %s\n", label.c_str(), cut.c_str());
   const Field e = t.emission();
   const double norm_e = t.flux_norm(e);
   const double a = t.max_albedo();

@@ -25,7 +25,7 @@ int run_precompute(PrecomputeFlags& f) {
   o.system = f.system.system();
   o.series.gather = f.gather.options();
   PrecomputeResult r = precompute(f.scene, o);
-  print_warnings(r.report.system->lobes);
+  print_warnings(r.report);
   const double write_seconds = time_seconds([&] { write_prt(r.op, f.output); });
   r.report.seconds.push_back({"write", write_seconds});
   write_report(f.report, r.report);

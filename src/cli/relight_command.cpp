@@ -21,6 +21,7 @@ int run_relight(RelightFlags& f) {
   if (!f.report.empty()) check_output_path(f.report, "report");
   f.options.emission = parse_emissions(f.emission);
   const RelightResult r = relight(f.prt, f.options);
+  print_warnings(r.report);
   write_image(r.image, f.output, ImageWriteOptions{f.exposure});
   write_report(f.report, r.report);
   std::fprintf(

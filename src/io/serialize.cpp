@@ -155,7 +155,7 @@ void write_json(JsonWriter& w, std::string_view key, const SeriesReport& r) {
       .value("bandwidth_before", r.bandwidth_before)
       .value("bandwidth_after", r.bandwidth_after)
       .value("reorder_seconds", r.reorder_seconds)
-      .value("gather_seconds", r.gather_seconds);
+      .value("gather_seconds", r.gather.seconds);
   w.begin_array("term_norms");
   for (double x : r.term_norms) w.element(x);
   w.end_array().end_object();
@@ -183,7 +183,7 @@ SeriesReport read_series_report(const JsonValue& v) {
   if (r.has("nnz")) {
     s.nnz = r.integer("nnz", 0, 9e15);
     s.bytes = static_cast<std::size_t>(r.integer("bytes", 0, 9e15));
-    s.gather_seconds = r.number("gather_seconds");
+    s.gather.seconds = r.number("gather_seconds");
   }
   if (r.has("reorder")) {
     s.reorder = read_enum<SeriesReorder>(r, "reorder");

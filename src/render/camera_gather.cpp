@@ -648,6 +648,17 @@ GatherWork for_each_gather_block(
   return work;
 }
 
+GatherWork gather_cost(const Gather& gather, const GatherWork& work) {
+  GatherWork cost = work;
+  cost.seconds += gather.seconds;
+  if (gather.deferred) return cost;
+  cost.rays = gather.rays;
+  cost.nnz = gather.g.nnz() + gather.e.nnz();
+  cost.bytes = gather.bytes();
+  cost.mirror_chains = gather.mirror_chains;
+  return cost;
+}
+
 double gather_memory(const GatherOptions& o, std::int64_t pixels, bool deferred) {
   const double rays = static_cast<double>(o.pixel_grid) * o.pixel_grid;
   // With the mesh's near points gathered by rays, as if half the points were (cornell-box on its

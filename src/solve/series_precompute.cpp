@@ -423,7 +423,7 @@ std::vector<FieldBlock> view_rows(const Gather& gather, const std::vector<KeptSu
           }
         }
       });
-  report->gather_seconds = work.seconds + gather.seconds;
+  report->gather = gather_cost(gather, work);
   return out;
 }
 

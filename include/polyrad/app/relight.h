@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,7 @@ struct Relit {
   double gather_seconds = 0.0;   // solution operators: the gather product, plus a build if the
                                  // orbit was not cached
   bool gather_built = false;     // this call built a gather
+  std::optional<GatherSummary> gather;  // solution operators: the gather that made the image
 };
 
 class Relighter {

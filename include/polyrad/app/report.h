@@ -40,6 +40,8 @@ struct GatherSummary {
 std::string describe_chain_cut(const GatherSummary& g);
 // work: what reading a deferred gather cost (its rows are built where they are read).
 GatherSummary summarize(const Gather& g, const GatherWork& work = {});
+// The gather behind a view operator's rows (SeriesReport::gather).
+GatherSummary summarize(const GatherOptions& options, const GatherWork& cost);
 
 // A path-traced image: the options that matter for reproducing it and what it cost.
 struct PathTraceSummary {

@@ -366,6 +366,9 @@ struct GatherWork {
 GatherWork for_each_gather_block(
     const Gather& gather, std::int64_t block_pixels,
     const std::function<void(std::int64_t, const Csr<Rgbf>&, const Csr<Rgbf>&)>& f);
+// What a gather's rows cost in all: a stored gather's build, or a deferred gather's rows as
+// they were read (work, from for_each_gather_block); the seconds of both.
+GatherWork gather_cost(const Gather& gather, const GatherWork& work);
 
 // The bytes a gather of `pixels` pixels holds at its peak, built whole or deferred (for the
 // memory estimate, transport/memory_estimate.h): a stored gather its entries twice while it is

@@ -97,7 +97,7 @@ struct SeriesReport {
   long long bandwidth_before = 0;  // max |row - column| over T's stored entries, as built
   long long bandwidth_after = 0;   // ... in the numbering the products used (= before for kNone)
   double reorder_seconds = 0.0;    // ordering and the permuted copy of T (part of `seconds`)
-  double gather_seconds = 0.0;     // view rows: building the gather (part of `seconds`)
+  GatherWork gather;  // view rows: what building the gather cost (its seconds part of `seconds`)
 };
 
 // One column of S: a unit emitter (a patch, or all patches of an object) and its scene emission.
