@@ -37,7 +37,8 @@ fi
 cmake --build "$dir" -j "$(nproc)" --target "${targets[@]%%:*}" >&2
 
 # Seeds for the .prt loader: small operators of fuzz/prt_seed_scene.json in every combination of
-# rows, precision and basis (and one sparse solution, by --drop), written by this polyrad.
+# rows, precision and basis (and one sparse solution, by --drop, and one that keeps the mesh's
+# direct light, by --indirect mesh), written by this polyrad.
 if [[ " ${targets[*]} " == *":prt "* ]]; then
   cli="${POLYRAD_CLI:-build/release/src/polyrad}"
   if [ ! -x "$cli" ]; then
@@ -66,6 +67,7 @@ if [[ " ${targets[*]} " == *":prt "* ]]; then
     done
   done
   seed solution-float-patch-drop --output solution --drop 0.3
+  seed solution-float-object-mesh --output solution --basis object --indirect mesh
   echo "fuzz.sh: $(ls "$seeds" | wc -l) .prt seeds in $seeds" >&2
 fi
 

@@ -126,14 +126,17 @@ TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
     ValuePrecision precision;
     SeriesBasis basis;
     double drop;
+    IndirectMode indirect = IndirectMode::kRays;
   };
   const Variant variants[] = {
       {SeriesOutput::kView, ValuePrecision::kFloat, SeriesBasis::kPatch, 0.0},
       {SeriesOutput::kView, ValuePrecision::kHalf, SeriesBasis::kObject, 0.0},
       {SeriesOutput::kSolution, ValuePrecision::kFloat, SeriesBasis::kPatch, 0.3},
       {SeriesOutput::kSolution, ValuePrecision::kHalf, SeriesBasis::kObject, 0.0},
+      {SeriesOutput::kSolution, ValuePrecision::kFloat, SeriesBasis::kObject, 0.0,
+       IndirectMode::kMesh},
   };
-  bool dense = false, sparse = false, links = false;
+  bool dense = false, sparse = false, links = false, direct = false;
   for (const Variant& v : variants) {
     SeriesOptions o;
     o.order = 3;
@@ -141,16 +144,21 @@ TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
     o.precision = v.precision;
     o.basis = v.basis;
     o.drop = v.drop;
+    if (v.indirect == IndirectMode::kMesh) {  // as polyrad precompute takes it by default
+      o.gather = GatherOptions::final_gather();
+      o.gather.indirect = v.indirect;
+    }
     o.progress = false;
     const std::string bytes = prt_bytes(*sys, gather, o);
-    const std::string name =
-        std::string(enum_name(v.output)) + "-" + enum_name(v.precision) + "-" + enum_name(v.basis);
+    const std::string name = std::string(enum_name(v.output)) + "-" + enum_name(v.precision) + "-" +
+                             enum_name(v.basis) + "-" + enum_name(v.indirect);
     ASSERT_EQ(replay_bytes(fuzz::prt_input, bytes, name), Outcome::kAccepted) << name;
     {
       fuzz::AlignedBytes file(bytes);
       SeriesOperator q = read_prt_bytes(file.data, file.size, name);
       (q.dense() ? dense : sparse) = true;
       links = links || !q.layout.links.empty();
+      direct = direct || (q.direct && q.direct->has_links() && !q.direct->mirrored.empty());
     }
     for (std::size_t n = 0; n < bytes.size(); n += n < 64 ? 1 : 37) {
       const std::string cut = bytes.substr(0, n), what = name + " cut to " + std::to_string(n);
@@ -168,7 +176,8 @@ TEST(FuzzRegression, PrtSeedsAndTheirDamage) {
       replay_bytes(fuzz::prt_input, damaged, what);
     }
   }
-  EXPECT_TRUE(dense && sparse && links) << "the seeds should cover both layouts and the links";
+  EXPECT_TRUE(dense && sparse && links && direct)
+      << "the seeds should cover both layouts, the links and the mesh's direct light";
 }
 
 }  // namespace

@@ -23,11 +23,6 @@ void check_series_options(const SeriesOptions& series, const SystemOptions& syst
     throw InputError(
         "a hierarchical mesh's solution rows are its leaves, which relight cannot "
         "rebuild from the scene; use --output view (or --mesh uniform)");
-  if (series.output == SeriesOutput::kSolution && series.gather.kind == GatherKind::kFinal &&
-      series.gather.indirect == IndirectMode::kMesh)
-    throw InputError(
-        "--indirect mesh reads the mesh's direct light (T e), which relight builds its gather "
-        "without; use --output view (or --indirect rays)");
 }
 
 SystemOptions system_for_gather(SystemOptions system, const GatherOptions& gather,

@@ -69,8 +69,8 @@ struct Relighter::Views {
     if (auto g = cached(o)) return g;
     std::lock_guard<std::mutex> build(build_mutex);
     if (auto g = cached(o)) return g;  // another request built it meanwhile
-    auto g = std::make_shared<const Gather>(
-        build_gather(*world, orbit_camera(world->camera(), o), q->layout, q->gather));
+    auto g = std::make_shared<const Gather>(build_gather(*world, orbit_camera(world->camera(), o),
+                                                         q->layout, q->gather, q->direct.get()));
     *built = true;
     std::lock_guard<std::mutex> lock(cache_mutex);
     cache.insert(cache.begin(), {o, g});

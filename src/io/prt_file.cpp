@@ -43,6 +43,12 @@ std::string header_json(const SeriesOperator& q, const std::vector<Section>& sec
   w.value("nnz", static_cast<long long>(q.nnz()));
   w.value("num_patches", q.layout.num_patches);
   w.value("links", static_cast<long long>(q.layout.links.size()));
+  if (q.direct) {
+    const MeshDirect& d = *q.direct;
+    w.begin_object("mesh_direct").value("objects", d.objects);
+    w.value("link_rows", static_cast<long long>(d.link_value.size() / std::max(1, d.objects)));
+    w.value("link_table", d.has_links()).value("mirrored", !d.mirrored.empty()).end_object();
+  }
   w.begin_array("sections");
   for (const auto& s : sections)
     w.begin_object()
@@ -80,6 +86,17 @@ std::string encode(const SeriesOperator& q) {
   blobs.push_back({"links", link_pairs.data(), sizeof(std::uint32_t) * link_pairs.size()});
   blobs.push_back(
       {"flux_weight", q.layout.flux_weight.data(), sizeof(double) * q.layout.flux_weight.size()});
+  if (q.direct) {
+    const MeshDirect& d = *q.direct;
+    auto add = [&](const char* name, const auto& v) {
+      blobs.push_back({name, v.data(), sizeof(v[0]) * v.size()});
+    };
+    add("direct_column", d.column);
+    add("direct_value", d.value);
+    add("direct_link_row", d.link_row);
+    add("direct_link_value", d.link_value);
+    add("direct_mirrored", d.mirrored);
+  }
   // The header holds the section table, whose offsets depend on the header's length: iterate
   // until the length settles (digits only grow, so this ends).
   std::vector<Section> sections(blobs.size());
@@ -140,6 +157,39 @@ std::int64_t count(const JsonValue& v, const char* key, const std::string& name,
 
 void write_prt(const SeriesOperator& q, const std::string& path) {
   write_file_atomic(path, encode(q));
+}
+
+// The mesh's direct light a solution operator's gather reads (SeriesOperator::direct), checked
+// so that every index it holds is safe to follow: columns are patches, link rows below their
+// count. The values are copied out (12 bytes a patch and emitting object).
+template <typename SectionFn>
+std::shared_ptr<const MeshDirect> read_mesh_direct(const JsonValue& h, const UnknownLayout& layout,
+                                                   SectionFn& section, const std::string& name) {
+  const JsonValue& m = member(h, "mesh_direct", JsonValue::Kind::kObject, name);
+  const std::int64_t b = layout.num_patches, links = static_cast<std::int64_t>(layout.links.size());
+  auto d = std::make_shared<MeshDirect>();
+  d->objects = static_cast<int>(count(m, "objects", name, static_cast<double>(b)));
+  const std::int64_t rows = count(m, "link_rows", name, static_cast<double>(links));
+  const bool table = member(m, "link_table", JsonValue::Kind::kBool, name).boolean;
+  const bool mirrored = member(m, "mirrored", JsonValue::Kind::kBool, name).boolean;
+  if (!table && (rows > 0 || mirrored))
+    refuse(name, "the mesh's direct light lacks its link table");
+  const auto n = static_cast<std::size_t>(d->objects);
+  auto read = [&](const char* key, auto& v, std::size_t count) {
+    const auto* at = section(key, sizeof(v[0]) * count);
+    v.resize(count);
+    if (count) std::memcpy(v.data(), at, sizeof(v[0]) * count);
+  };
+  read("direct_column", d->column, n);
+  read("direct_value", d->value, static_cast<std::size_t>(b) * n);
+  read("direct_link_row", d->link_row, table ? static_cast<std::size_t>(links) : 0);
+  read("direct_link_value", d->link_value, static_cast<std::size_t>(rows) * n);
+  read("direct_mirrored", d->mirrored, mirrored ? static_cast<std::size_t>(b) * n : 0);
+  for (std::int32_t c : d->column)
+    if (c < 0 || c >= b) refuse(name, "the mesh's direct light names a patch out of range");
+  for (std::int32_t r : d->link_row)
+    if (r < -1 || r >= rows) refuse(name, "the mesh's direct light names a link row out of range");
+  return d;
 }
 
 SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::string& name) {
@@ -252,6 +302,7 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   q.layout.flux_weight.assign(flux, flux + q.layout.num_patches + links);
   if (q.output == SeriesOutput::kSolution && rows != q.layout.size())
     refuse(name, "rows do not match the unknowns");
+  if (h.find("mesh_direct")) q.direct = read_mesh_direct(h, q.layout, section, name);
   q.report.nnz = nnz;
   q.set_view(rows, start, column, values, nullptr);
   q.report.bytes = q.bytes();

@@ -486,10 +486,6 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
                                  const SeriesOptions& o, const Gather* given_gather) {
   const Stopwatch watch;
   const bool view = o.output == SeriesOutput::kView;
-  if (!view && o.gather.kind == GatherKind::kFinal && o.gather.indirect == IndirectMode::kMesh)
-    throw InputError(
-        "--indirect mesh reads the mesh's direct light (T e), which relight builds its gather "
-        "without; use --output view (or --indirect rays)");
   SeriesOperator q = operator_shell(t, world, o);
   const auto cols = static_cast<std::int64_t>(q.columns.size());
   std::unique_ptr<PermutedTransport> permuted = reordered_transport(t, o.reorder, q.report);
@@ -551,6 +547,7 @@ SeriesOperator precompute_series(const TransportOperator& t, const World& world,
       out[b] = FieldBlock();
     }
   }
+  if (!view) q.direct = mesh_direct_for(o.gather, t, world);
   pieces.assemble(q);
   fill_report(q.report, q, t, terms, o, rho, pieces);
   q.report.seconds = watch.seconds();

@@ -3,11 +3,14 @@
 // Layout (little-endian):
 //   magic "POLYRADQ" | u32 version | u32 header length | header (JSON: metadata and the table of
 //   binary sections) | zero padding to 64 bytes | sections, each 64-byte aligned | u64 checksum
-// The checksum covers every byte before it. Writing goes to a temporary file that is renamed
-// only when complete (util/files.h), so an interrupted precompute leaves nothing behind. Reading
-// maps the file and refuses, with InputError naming the file, anything truncated, corrupted
-// (checksum), foreign (magic), of another version, or inconsistent (sections out of bounds, indices
-// out of range).
+// Sections: the rows (row_start and column when sparse, values), the links and flux weights of
+// solution rows, and for a solution operator behind a final gather that reads T e (mirror
+// images, --indirect mesh) that light, render/mesh_direct.h (direct_*; the header's
+// "mesh_direct" gives its counts). The checksum covers every byte before it. Writing goes to a
+// temporary file that is renamed only when complete (util/files.h), so an interrupted precompute
+// leaves nothing behind. Reading maps the file and refuses, with InputError naming the file,
+// anything truncated, corrupted (checksum), foreign (magic), of another version, or inconsistent
+// (sections out of bounds, indices out of range).
 //
 //   write_prt(q, "out/scene.prt");
 //   SeriesOperator q = read_prt("out/scene.prt");      // values stay in the mapping

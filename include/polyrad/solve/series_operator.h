@@ -132,6 +132,10 @@ class SeriesOperator : public SeriesMetadata {
   SeriesOperator& operator=(SeriesOperator&&) noexcept = default;
 
   UnknownLayout layout;  // solution mode: what each row is
+  // Solution mode behind a final gather: the mesh's direct light (render/mesh_direct.h) that
+  // the gather relight builds reads, for the lamps' mirror images and IndirectMode::kMesh, as
+  // render's does (mesh_direct_for); null where that gather needs none.
+  std::shared_ptr<const MeshDirect> direct;
 
   std::int64_t rows() const { return rows_; }
   std::int64_t cols() const { return static_cast<std::int64_t>(columns.size()); }
