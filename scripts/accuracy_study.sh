@@ -13,16 +13,13 @@
 # "0.1 0.05 0.02"; empty: none), named SCENE-pSIZE-hTOL; $READS replaces the whole list of runs
 # (e.g. READS="final h0.05").
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/accuracy}"
 spp="${2:-4096}"
 shift $(( $# > 2 ? 2 : $# )) || true
 scenes=("$@")
 [ ${#scenes[@]} -eq 0 ] && scenes=(cornell-box cornell-mirror-cube cornell-glossy)
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 table="$out/accuracy.md"
 {

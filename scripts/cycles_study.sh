@@ -19,7 +19,7 @@
 # $BLENDER Blender's (default: blender, installed with apt-get when missing), $NICE a niceness
 # for the long renders (default 10). Timings are only as good as the machine is quiet.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 mode="${1:-}"
 shift || true
 NICE="${NICE:-10}"
@@ -34,13 +34,6 @@ need_blender() {
     if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
     DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y --no-install-recommends \
       blender >&2
-  fi
-}
-
-need_polyrad() {
-  if [ -z "${POLYRAD:-}" ]; then
-    "$root/scripts/deps.sh"
-    POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
   fi
 }
 

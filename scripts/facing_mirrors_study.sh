@@ -11,15 +11,12 @@
 # depths (default "1 2 4 8 16 32"); $SPP the path tracer's samples per pixel (default 16384, with
 # --max-depth 4096 since the mirrors keep 0.99 of the light: about 25 s on two cores; 0: none).
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/facing-mirrors}"
 scene="$root/scenes/stability/facing-mirrors-black.json"
 spp="${SPP:-16384}"
 exact="$root/scripts/facing_mirrors_exact.py"
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 [ -f "$out/exact.pfm" ] || /usr/bin/python3 "$exact" exact "$out/exact.pfm" "$out/lamp-mask.json"
 table="$out/facing-mirrors.md"

@@ -13,15 +13,12 @@
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh); $SETTINGS
 # overrides the settings ("gather/light/near[/reflector] ...", default the eleven below).
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/gather}"
 shift $(( $# > 1 ? 1 : $# )) || true
 scenes=("$@")
 [ ${#scenes[@]} -eq 0 ] && scenes=(cornell-box cornell-mirror-cube cornell-glossy)
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 settings="${SETTINGS:-16/64/4 36/64/4 64/64/4 100/64/4 64/16/4 64/256/4 64/64/0 64/64/16 64/64/4/0 64/64/4/256 patch}"
 mkdir -p "$out"
 /usr/bin/python3 - "$POLYRAD" "$root" "$out" "$settings" "${scenes[@]}" <<'PY'

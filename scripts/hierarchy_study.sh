@@ -16,15 +16,12 @@
 # Also hierarchy.png: links, peak memory and wall time against elements for both meshes, and
 # the image error against wall time.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/hierarchy}"
 scene="${3:-$root/scenes/cornell-box.json}"
 name="$(basename "$scene" .json)"
 ref="${2:-$out/$name-pt4096.exr}"
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 if [ ! -f "$ref" ]; then
   echo "hierarchy study: path tracing $name at 4096 spp" >&2

@@ -19,16 +19,13 @@
 # cached in DIR (delete them to render again); 128 x 128 at 16384 spp takes 2 to 4 minutes each
 # on two cores, the radiosity at patch size 25 about 20 seconds.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/lobe}"
 spp="${2:-16384}"
 shift $(( $# > 2 ? 2 : $# )) || true
 sizes=("$@")
 [ ${#sizes[@]} -eq 0 ] && sizes=(100 70 50 35 25)
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 light_samples="${LIGHT_SAMPLES:-4}"
 
@@ -110,7 +107,7 @@ done
 {
   echo
   for n in "${notes[@]}"; do echo "$n"; done
-  echo "Machine: $(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['machine'])" "$out/sharp-pt$spp.json")."
+  echo "Machine: $(report_value "$out/sharp-pt$spp.json" machine)."
 } >> "$table.tmp"
 mv "$table.tmp" "$table"
 cat "$table"

@@ -10,13 +10,10 @@
 #           room's renders and precomputes too, about 15 minutes more)
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh).
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/memory}"
 rows="${2:-all}"
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 scenes="$root/scenes"
 

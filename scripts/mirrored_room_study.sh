@@ -11,14 +11,11 @@
 # $POLYRAD names the binary (default: a Release build through scripts/build.sh); $BUDGETS the
 # budgets (default "0 64 128 256 512 1024"; 0: one mirror, as --mirror-image-depth 1).
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 out="${1:-out/mirrored-room}"
 scene="$root/scenes/stability/mirrored-room.json"
 exact="$root/scripts/mirrored_room_exact.py"
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 mkdir -p "$out"
 [ -f "$out/exact.pfm" ] || /usr/bin/python3 "$exact" exact "$out/exact.pfm" "$out/mask.json"
 table="$out/mirrored-room.md"
@@ -30,8 +27,7 @@ for budget in ${BUDGETS:-0 64 128 256 512 1024}; do
   base="$out/chains-$budget"
   /usr/bin/time -f "%e" -o "$base.wall" "$POLYRAD" --quiet render "$scene" \
     --mirror-chains "$budget" -o "$base.pfm" --report "$base.json"
-  rays=$(/usr/bin/python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['gather']['rays'])" \
-    "$base.json")
+  rays=$(report_value "$base.json" gather rays)
   echo "| $budget | $(tail -n 1 "$base.wall") | $rays | $(/usr/bin/python3 "$exact" compare \
     "$base.pfm" "$out/exact.pfm" "$out/mask.json") |" >> "$table"
 done

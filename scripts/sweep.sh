@@ -7,7 +7,7 @@
 # The charts go to DIR/charts, or to $CHARTS_DIR. $POLYRAD names the polyrad binary to use;
 # without it, the missing packages are installed and a Release build is made (scripts/build.sh).
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+source "$(dirname "$0")/lib/study.sh"
 
 out=""
 args=("$@")
@@ -22,9 +22,6 @@ if [ -z "$out" ]; then
   exit 2
 fi
 
-if [ -z "${POLYRAD:-}" ]; then
-  "$root/scripts/deps.sh"
-  POLYRAD="$root/$(cd "$root" && BUILD_TYPE=Release ./scripts/build.sh | tail -n 1)/src/polyrad"
-fi
+need_polyrad
 "$POLYRAD" sweep "$@"
 "${PYTHON:-/usr/bin/python3}" "$root/scripts/charts.py" "$out" --out "${CHARTS_DIR:-$out/charts}"
