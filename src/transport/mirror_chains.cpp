@@ -139,14 +139,16 @@ MirrorChains mirror_chains(const MirrorPlanes& m, const Vec3& x, int max_length,
         }
         level.push_back({b, static_cast<std::int32_t>(at), length, 0, 0,
                          static_cast<std::int32_t>(start), static_cast<std::int32_t>(corners)});
+        // A level that outgrows the budget is dropped whole: stop clipping it (at budget 256 on
+        // the mirrored room's floor, that level is as large as half the kept ones together).
+        if (kept + level.size() > budget) {
+          out.cut = true;
+          return out;
+        }
       }
       children.emplace_back(base + before, static_cast<std::int32_t>(level.size()) - before);
     }
     if (level.empty()) break;
-    if (kept + level.size() > budget) {
-      out.cut = true;
-      break;
-    }
     for (std::size_t at = begin; at < end; ++at) {
       out.chains[at].first_child = children[at - begin].first;
       out.chains[at].children = children[at - begin].second;
