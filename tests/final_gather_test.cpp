@@ -13,6 +13,7 @@
 #include "polyrad/io/prt_file.h"
 #include "polyrad/render/camera_gather.h"
 #include "polyrad/render/image_compare.h"
+#include "polyrad/render/path_tracer.h"
 #include "polyrad/solve/series_precompute.h"
 #include "polyrad/solve/solver.h"
 #include "polyrad/transport/system.h"
@@ -474,6 +475,45 @@ TEST(FinalGather, MirroredRoomDrawsItsChainsThroughEveryWall) {
   EXPECT_LT(std::abs(more), std::abs(kept));  // the chains carry the light, more of them more
   EXPECT_LT(std::abs(kept), std::abs(some));
   EXPECT_LT(rays, 4 * rays1);  // the beams: rays only for light points a chain can show
+}
+
+// A mirror with a diffuse part passes chains on as well as it begins them: the lamps' images
+// through it, and its own reflected light read where a sample's path meets it on the way. The
+// mirrored room with its west wall a mirror of 0.8 over a diffuse 0.1, against the path tracer
+// (8,192 paths a pixel; the image mean's relative standard error about 0.7 percent). Measured:
+// one mirror -9.6 percent, the chains -0.4; -4.5 when chains stopped at such a wall unless it
+// came first.
+TEST(FinalGather, ChainsPassAMirrorWithADiffusePart) {
+  std::string text = test::read_text(test::scene_path("stability/mirrored-room"));
+  const std::string west = "{\"name\": \"west\", \"material\": \"mirror\"";
+  ASSERT_NE(text.find(west), std::string::npos);
+  text.replace(text.find(west), west.size(), "{\"name\": \"west\", \"material\": \"part\"");
+  const std::string materials = "\"materials\": {";
+  text.replace(text.find(materials), materials.size(),
+               materials + R"("part": {"type": "glossy", "diffuse": [0.1, 0.1, 0.1],
+                                     "specular": [0.8, 0.8, 0.8], "roughness": 0},)");
+  Scene scene = test::scene_from_json(text);
+  scene.camera.width = scene.camera.height = 8;
+  const auto sys = build_system(World::build(std::move(scene)));
+  const SolveResult solution = converged(*sys);
+  const auto mean = [](const Image& image) {
+    double sum = 0.0;
+    for (std::size_t k = 0; k < image.rgb.size(); k += 3) sum += image.rgb[k + 1];
+    return sum / static_cast<double>(image.rgb.size() / 3);
+  };
+  PathTraceOptions po;
+  po.spp = test::kUnderAddressSanitizer ? 2048 : 8192;
+  po.max_depth = 200;
+  po.progress = false;
+  const double traced = mean(PathTracer(*sys->world).render(sys->world->camera(), po).image);
+  GatherOptions one = final_options();
+  one.mirror_image_depth = 1;
+  const double through_one = mean(gather_image(*sys, solution.u, one)) / traced - 1.0;
+  const double chained = mean(gather_image(*sys, solution.u, final_options())) / traced - 1.0;
+  std::printf("a mirror wall with a diffuse part: one mirror %+.2f%%, chains %+.2f%%\n",
+              100 * through_one, 100 * chained);
+  EXPECT_LT(through_one, -0.05);
+  EXPECT_LT(std::abs(chained), test::kUnderAddressSanitizer ? 0.03 : 0.02);
 }
 
 // The gather counts the hits before facing mirrors and those where the budget cut the chains

@@ -441,7 +441,7 @@ class FinalGatherer {
   }
 
   // The chains of facing mirrors from x (sh.chains, transport/mirror_chains.h): each of n >= 2
-  // mirrors, those after the first without a diffuse part or light, drawn with
+  // mirrors, those after the first with no light on them, drawn with
   // mirror_image_samples / n^2 light points of its own, at least one (a lamp seen through many
   // mirrors is far and small, and each of its points costs n + 1 rays), cast only where the
   // point's image lies in the chain's beam. Chains longer than the budget holds
@@ -624,8 +624,9 @@ class FinalGatherer {
   // a hierarchy); this reads what the mirror shows at the sample. Returns the rays cast.
   //
   // With images, the ray follows on through the mirrors while the planes it meets are a chain
-  // the images draw (`chains`, from x: each a facing one without a diffuse part, no light, up
-  // to the budget's length), and reads where it leaves them; a lamp met there is the images'.
+  // the images draw (`chains`, from x: each a facing one with no light on it, up to the budget's
+  // length), reading the reflected light of those with a diffuse part as it passes them, and
+  // reads where it leaves them; a lamp met there is the images'.
   long long through_mirror(const Vec3& x, PatchId j, Vec3 p, const Vec3& dir, const Rgb& w,
                            Rng& rng, PixelTerms& terms, bool images, bool deeper,
                            const MirrorChains* chains = nullptr) const {
@@ -643,7 +644,12 @@ class FinalGatherer {
       behind += z.t;
       p = z.position;
       j = z.patch;
-      ws *= c_.materials[c_.patches[j].material].specular;
+      // A mirror with a diffuse part sends its reflected light B~_j too (no light lies on a
+      // chain's plane): read here, as the links would have carried it.
+      const Material& mj = c_.materials[c_.patches[j].material];
+      if (mj.diffuse.maxCoeff() > 0.0)
+        add_reflected(locate(c_, j, z.u, z.v), scaled(ws, 1.0), terms, o_.diffuse);
+      ws *= mj.specular;
       out = reflect_in_plane(out, c_.patches[j].normal);
       z = c_.caster.intersect_from(p, j, out);
       ++rays;

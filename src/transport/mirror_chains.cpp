@@ -127,7 +127,7 @@ MirrorChains mirror_chains(const MirrorPlanes& m, const Vec3& x, int max_length,
                                        static_cast<std::size_t>(c.beam_size));
       const auto before = static_cast<std::int32_t>(level.size());
       for (const std::int32_t b : plane(c.plane).facing) {
-        if (!plane(b).pure) continue;
+        if (plane(b).emits) continue;
         projected_window(a, plane(b), unfold[at], x, a.height(x), window);
         const std::size_t start = level_beams.size();
         const std::size_t corners = intersect_convex(beam, window, level_beams);

@@ -119,9 +119,8 @@ MirrorPlanes mirror_planes(const PatchSet& patches, const std::vector<Material>&
   }
   find_windows(m, patches, grow);
   for (std::size_t p = 0; p < patches.size(); ++p)
-    if (m.plane_of[p] >= 0 &&
-        (patches[p].emitter || materials[patches[p].material].diffuse.maxCoeff() > 0.0))
-      m.planes[static_cast<std::size_t>(m.plane_of[p])].pure = false;
+    if (m.plane_of[p] >= 0 && patches[p].emitter)
+      m.planes[static_cast<std::size_t>(m.plane_of[p])].emits = true;
   find_facing(m, patches, 10.0 * grow);
   return m;
 }

@@ -1,8 +1,9 @@
 // The chains of mirror planes a straight path from a point x may pass, each plane after the first
-// one that faces the one before and without a diffuse part or light (MirrorPlanes::Plane::pure):
-// the final gather draws the lamps at their images through each (render/final_gather.cpp) and
-// follows its samples on through the same chains. Unfolded, a path x -> p_0 -> ... -> p_{n-1}
-// through planes q_0 ... q_{n-1} is the straight line from x through the windows
+// one that faces the one before and with no light on it (MirrorPlanes::Plane::emits; a diffuse
+// part is no bar): the final gather draws the lamps at their images through each
+// (render/final_gather.cpp) and follows its samples on through the same chains. Unfolded, a path x
+// -> p_0 -> ... -> p_{n-1} through planes q_0 ... q_{n-1} is the straight line from x through the
+// windows
 //     W_0,  R_0(W_1),  R_0 R_1(W_2),  ...,  R_0 ... R_{n-2}(W_{n-1})      (R_t: the reflection
 //                                                                          in plane q_t)
 // so a chain can carry light only if one line from x passes them all. Seen from x, each unfolded

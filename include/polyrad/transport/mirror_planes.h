@@ -46,9 +46,9 @@ struct MirrorPlanes {
     double offset;  // normal . x on the plane
     Vec3 lo, hi;    // the box of its patches' corners, grown by a little
     Rgb specular;   // the mirror's reflectance s
-    // No diffuse part and no light: a ray meets only the mirror there (the final gather follows
-    // its rays on through such mirrors, and draws the lamps at their images through them).
-    bool pure = true;
+    // A light lies on it: a chain of facing mirrors (mirror_chains.h) passes on only through
+    // planes without one, whose light the lamps' images and the reads beyond them then give.
+    bool emits = false;
     // The planes a path that leaves this one may meet next: each with a corner of a patch in
     // front of this plane, and a corner of one of this one's in front of it (two mirrors that
     // face each other; no two faces of a convex mirror do).
