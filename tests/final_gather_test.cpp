@@ -481,7 +481,7 @@ TEST(FinalGather, MirroredRoomDrawsItsChainsThroughEveryWall) {
 // through it, and its own reflected light read where a sample's path meets it on the way. The
 // mirrored room with its west wall a mirror of 0.8 over a diffuse 0.1, against the path tracer
 // (8,192 paths a pixel; the image mean's relative standard error about 0.7 percent). Measured:
-// one mirror -9.6 percent, the chains -0.4; -4.5 when chains stopped at such a wall unless it
+// one mirror -9.6 percent, the chains -0.5; -4.5 when chains stopped at such a wall unless it
 // came first.
 TEST(FinalGather, ChainsPassAMirrorWithADiffusePart) {
   std::string text = test::read_text(test::scene_path("stability/mirrored-room"));

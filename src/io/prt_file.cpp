@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <set>
 #include <stdexcept>
 
 #include "polyrad/geometry/mesher.h"
@@ -160,15 +161,24 @@ void write_prt(const SeriesOperator& q, const std::string& path) {
 }
 
 // The mesh's direct light a solution operator's gather reads (SeriesOperator::direct), checked
-// so that every index it holds is safe to follow: columns are patches, link rows below their
-// count. The values are copied out (12 bytes a patch and emitting object).
+// so that every index it holds is safe to follow: one object per emitting object of the columns,
+// columns are patches, link rows below their count, no section larger than the file. The values
+// are copied out (12 bytes a patch and emitting object). A solution operator written before
+// polyrad kept it has none: its relight draws no mirror images, as when it was written.
 template <typename SectionFn>
-std::shared_ptr<const MeshDirect> read_mesh_direct(const JsonValue& h, const UnknownLayout& layout,
-                                                   SectionFn& section, const std::string& name) {
+std::shared_ptr<const MeshDirect> read_mesh_direct(const JsonValue& h, const SeriesOperator& q,
+                                                   SectionFn& section, const std::string& name,
+                                                   double file_size) {
+  if (q.output != SeriesOutput::kSolution) refuse(name, "view rows keep no mesh's direct light");
   const JsonValue& m = member(h, "mesh_direct", JsonValue::Kind::kObject, name);
+  const UnknownLayout& layout = q.layout;
   const std::int64_t b = layout.num_patches, links = static_cast<std::int64_t>(layout.links.size());
   auto d = std::make_shared<MeshDirect>();
   d->objects = static_cast<int>(count(m, "objects", name, static_cast<double>(b)));
+  std::set<std::string> emitting;
+  for (const SeriesColumn& c : q.columns) emitting.insert(c.object);
+  if (static_cast<std::size_t>(d->objects) != emitting.size())
+    refuse(name, "the mesh's direct light is not of the operator's emitting objects");
   const std::int64_t rows = count(m, "link_rows", name, static_cast<double>(links));
   const bool table = member(m, "link_table", JsonValue::Kind::kBool, name).boolean;
   const bool mirrored = member(m, "mirrored", JsonValue::Kind::kBool, name).boolean;
@@ -176,6 +186,8 @@ std::shared_ptr<const MeshDirect> read_mesh_direct(const JsonValue& h, const Unk
     refuse(name, "the mesh's direct light lacks its link table");
   const auto n = static_cast<std::size_t>(d->objects);
   auto read = [&](const char* key, auto& v, std::size_t count) {
+    if (static_cast<double>(count) * sizeof(v[0]) > file_size)
+      refuse(name, std::string("section '") + key + "' would be larger than the file");
     const auto* at = section(key, sizeof(v[0]) * count);
     v.resize(count);
     if (count) std::memcpy(v.data(), at, sizeof(v[0]) * count);
@@ -302,7 +314,7 @@ SeriesOperator read_prt_bytes(const void* data, std::size_t size, const std::str
   q.layout.flux_weight.assign(flux, flux + q.layout.num_patches + links);
   if (q.output == SeriesOutput::kSolution && rows != q.layout.size())
     refuse(name, "rows do not match the unknowns");
-  if (h.find("mesh_direct")) q.direct = read_mesh_direct(h, q.layout, section, name);
+  if (h.find("mesh_direct")) q.direct = read_mesh_direct(h, q, section, name, limit);
   q.report.nnz = nnz;
   q.set_view(rows, start, column, values, nullptr);
   q.report.bytes = q.bytes();

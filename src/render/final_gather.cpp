@@ -645,10 +645,10 @@ class FinalGatherer {
       p = z.position;
       j = z.patch;
       // A mirror with a diffuse part sends its reflected light B~_j too (no light lies on a
-      // chain's plane): read here, as the links would have carried it.
+      // chain's plane): read here, as the link it stands for would have carried it.
       const Material& mj = c_.materials[c_.patches[j].material];
       if (mj.diffuse.maxCoeff() > 0.0)
-        add_reflected(locate(c_, j, z.u, z.v), scaled(ws, 1.0), terms, o_.diffuse);
+        rays += read_along(z, p - behind * out, out, ws, deeper, rng, terms);
       ws *= mj.specular;
       out = reflect_in_plane(out, c_.patches[j].normal);
       z = c_.caster.intersect_from(p, j, out);
@@ -658,14 +658,21 @@ class FinalGatherer {
     const PatchId k = z.patch;
     if (c_.patches[k].emitter && !images) terms.emission.push_back({k, scaled(ws, 1.0)});
     add_link(k, j, scaled(ws, 1.0), terms);
-    const DiffusePoint at = locate(c_, k, z.u, z.v);
     // x unfolded behind the last mirror's plane, as far from p as the path to it is long: the
     // near share then measures the length of the path x -> p -> z.
-    const Vec3 unfolded = p - behind * out;
+    return rays + read_along(z, p - behind * out, out, ws, deeper, rng, terms);
+  }
+
+  // The reflected light B~ at z, met along `in` by a path through mirrors from x (`unfolded`: x
+  // where the path would be a straight line to z), w times: read from the unknown there, or
+  // where the path is short against it and `deeper`, gathered again at z (near_share). Returns
+  // the rays cast.
+  long long read_along(const Hit& z, const Vec3& unfolded, const Vec3& in, const Rgb& w,
+                       bool deeper, Rng& rng, PixelTerms& terms) const {
+    const DiffusePoint at = locate(c_, z.patch, z.u, z.v);
     const double near = deeper ? near_share(unfolded, z.position, at.diameter) : 0.0;
-    if (near < 1.0) add_reflected(at, scaled(ws, 1.0 - near), terms, o_.diffuse);
-    if (near > 0.0) rays += near_gather(z, -out, ws * near, rng, terms);
-    return rays;
+    if (near < 1.0) add_reflected(at, scaled(w, 1.0 - near), terms, o_.diffuse);
+    return near > 0.0 ? near_gather(z, -in, w * near, rng, terms) : 0;
   }
 
   // Next-event estimation: points on the lights; only their emission is read here (the light a

@@ -69,6 +69,7 @@ class Relighter {
   SeriesOutput output() const { return q_.output; }
   bool can_orbit() const { return q_.output == SeriesOutput::kSolution; }
   const SeriesOperator& op() const { return q_; }
+  // Reading the operator; for solution rows, the world and the scene camera's gather as well.
   double load_seconds() const { return load_seconds_; }
 
   // The image for these emissions (lights not named keep their scene emission). Throws

@@ -186,8 +186,8 @@ struct GatherOptions {
   // Gather::options (mirror_image_samples 0).
   int mirror_image_samples = 0;
   // Final gather, with mirror images and through_mirrors not kNever, kRays: the most planar
-  // mirrors between a hit and a lamp's image. Past the first, only mirrors without a diffuse
-  // part that face the one before: the lamps are drawn at their images through every such chain
+  // mirrors between a hit and a lamp's image. Past the first, only mirrors with no light on
+  // them that face the one before: the lamps are drawn at their images through every such chain
   // (mirror_image_samples / n^2 points, at least one, for a chain of n), and a cosine sample or
   // reflector point that reads through a mirror follows its ray on through up to that many,
   // reading where it leaves them (a lamp met there is the images'). 1: one mirror, the rest on
