@@ -30,6 +30,21 @@ std::size_t clip_left(const Vec2* polygon, std::size_t n, const Vec2& a, const V
   return m;
 }
 
+// Whether the boxes of two polygons are apart: then so are the polygons (half the chains a
+// gather tries among four mirror walls end so, and this costs a + b corners, not a x b).
+bool boxes_apart(std::span<const Vec2> a, std::span<const Vec2> b) {
+  Vec2 alo = a[0], ahi = a[0], blo = b[0], bhi = b[0];
+  for (const Vec2& p : a) {
+    alo = alo.cwiseMin(p);
+    ahi = ahi.cwiseMax(p);
+  }
+  for (const Vec2& p : b) {
+    blo = blo.cwiseMin(p);
+    bhi = bhi.cwiseMax(p);
+  }
+  return (ahi.array() < blo.array()).any() || (bhi.array() < alo.array()).any();
+}
+
 }  // namespace
 
 double twice_signed_area(std::span<const Vec2> polygon) {
@@ -64,7 +79,7 @@ std::vector<Vec2> convex_hull(std::vector<Vec2> points) {
 
 std::size_t intersect_convex(std::span<const Vec2> a, std::span<const Vec2> b,
                              std::vector<Vec2>& out) {
-  if (a.size() < 3 || b.size() < 3) return 0;
+  if (a.size() < 3 || b.size() < 3 || boxes_apart(a, b)) return 0;
   // Each clip of a convex polygon adds at most one corner: two buffers of a + b corners and
   // more, in turn (on the stack for the beams' few corners, which a gather clips at every hit).
   const std::size_t room = a.size() + b.size() + 4;
