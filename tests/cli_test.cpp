@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -11,6 +12,7 @@
 
 #include "polyrad/io/image_io.h"
 #include "polyrad/render/camera_gather.h"
+#include "polyrad/util/hash.h"
 #include "polyrad/util/json.h"
 #include "test_support.h"
 
@@ -342,6 +344,38 @@ TEST(Cli, SolutionRowsRelightLikeViewRows) {
   EXPECT_EQ(
       run("precompute " + test::scene_path("cornell-box") + " -o " + sol + " --output pixels").code,
       2);
+}
+
+// A solution operator written before polyrad kept the mesh's direct light in it (its header
+// without "mesh_direct"; the sections it names are then unread) still relights, as it did then,
+// without the lamps' mirror images, and says so.
+TEST(Cli, OlderSolutionFilesRelightWithoutTheMirrorImagesAndSaySo) {
+  auto dir = test::temp_dir();
+  const std::string prt = (dir / "s.prt").string(), img = (dir / "s.pfm").string(),
+                    rep = (dir / "s.json").string();
+  ASSERT_EQ(run("precompute " + test::scene_path("stability/mirrored-room") + " -o " + prt +
+                " --output solution --order 8 --mirror-image-depth 2" + kQuickGather)
+                .code,
+            0);
+  CommandRun r = run("relight " + prt + " -o " + img);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  std::string bytes = test::read_text(prt);
+  const std::size_t from = bytes.find("\"mesh_direct\""), to = bytes.find('}', from);
+  ASSERT_NE(from, std::string::npos);
+  std::fill(bytes.begin() + static_cast<std::ptrdiff_t>(from),
+            bytes.begin() + static_cast<std::ptrdiff_t>(to) + 2, ' ');  // its comma too
+  const std::uint64_t sum = checksum64(bytes.data(), bytes.size() - 8);
+  std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
+  test::write_file(dir, "s.prt", bytes);
+  r = run("relight " + prt + " -o " + img + " --report " + rep);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("precompute it again"), std::string::npos) << r.err;
+  const JsonValue report = test::read_json(rep);
+  ASSERT_EQ(report.find("warnings")->array.size(), 1u);
+  EXPECT_EQ(report.find("warnings")->array[0].find("kind")->string,
+            "operator_without_mirror_images");
+  EXPECT_EQ(report.find("gather")->find("options")->find("mirror_image_samples")->number, 0.0);
 }
 
 TEST(Cli, ReorderFlagIsReportedAndBadValuesAreExitTwo) {

@@ -94,6 +94,11 @@ Relighter::Relighter(const std::string& prt_path, const std::string& scene_path)
   bool built = false;
   views_->gather(Orbit{}, &built);  // the scene camera's, so that the first image costs no build
   load_seconds_ += views.seconds();
+  if (!q_.direct && draws_mirror_images(q_.gather, *views_->world, !q_.layout.links.empty()))
+    missing_images_ =
+        "this solution operator was written before polyrad kept the mesh's direct light in it: "
+        "its gathers read the mirrors' links whole and draw no lamps' mirror images, unlike "
+        "render's; precompute it again to draw them";
 }
 
 Relighter::~Relighter() = default;
@@ -153,6 +158,8 @@ RelightResult relight(const std::string& prt_path, const RelightOptions& o) {
   rep.series = q;
   rep.relight = s;
   rep.gather = relit.gather;
+  if (!relighter.missing_images().empty())
+    rep.warnings.push_back({"operator_without_mirror_images", relighter.missing_images()});
   rep.seconds = {{"load", relighter.load_seconds()},
                  {"product", s.product.median},
                  {"gather", relit.gather_seconds},

@@ -343,6 +343,8 @@ std::string to_json(const Report& r) {
   if (r.system) write_lobe_warnings(w, r.system->lobes);
   if (r.pathtrace) write_truncation_warning(w, *r.pathtrace);
   if (r.gather) write_chain_warning(w, *r.gather);
+  for (const auto& [kind, message] : r.warnings)
+    w.begin_object().value("kind", kind).value("message", message).end_object();
   w.end_array();
   if (r.system) write_json(w, "system", *r.system);
   if (r.solve) write_json(w, "solve", *r.solve);

@@ -47,6 +47,8 @@ void print_warnings(const Report& report) {
     const std::string cut = describe_chain_cut(*report.gather);
     if (!cut.empty()) std::fprintf(stderr, "polyrad: warning: %s\n", cut.c_str());
   }
+  for (const auto& [kind, message] : report.warnings)
+    std::fprintf(stderr, "polyrad: warning: %s\n", message.c_str());
   if (!report.pathtrace) return;
   const std::string truncated = describe_truncation(*report.pathtrace);
   if (!truncated.empty()) std::fprintf(stderr, "polyrad: warning: %s\n", truncated.c_str());

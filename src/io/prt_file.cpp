@@ -164,7 +164,8 @@ void write_prt(const SeriesOperator& q, const std::string& path) {
 // so that every index it holds is safe to follow: one object per emitting object of the columns,
 // columns are patches, link rows below their count, no section larger than the file. The values
 // are copied out (12 bytes a patch and emitting object). A solution operator written before
-// polyrad kept it has none: its relight draws no mirror images, as when it was written.
+// polyrad kept it has none: its relight draws no mirror images, as when it was written
+// (Relighter::missing_images says so).
 template <typename SectionFn>
 std::shared_ptr<const MeshDirect> read_mesh_direct(const JsonValue& h, const SeriesOperator& q,
                                                    SectionFn& section, const std::string& name,

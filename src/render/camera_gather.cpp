@@ -560,11 +560,15 @@ class GatherRows {
   const std::int64_t patches_;
 };
 
+bool draws_mirror_images(const GatherOptions& o, const World& world, bool links) {
+  return o.kind == GatherKind::kFinal && o.mirror_image_samples > 0 && links && has_mirror(world);
+}
+
 std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
                                                   const TransportOperator& t, const World& world) {
   if (o.kind != GatherKind::kFinal) return nullptr;
   const bool mesh = o.indirect == IndirectMode::kMesh;
-  const bool images = o.mirror_image_samples > 0 && t.num_links() > 0 && has_mirror(world);
+  const bool images = draws_mirror_images(o, world, t.num_links() > 0);
   if (!mesh && !images) return nullptr;
   return std::make_shared<const MeshDirect>(
       mesh_direct(t, world.patches(), images ? &world.materials() : nullptr, images && mesh));

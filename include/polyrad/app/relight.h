@@ -71,6 +71,9 @@ class Relighter {
   const SeriesOperator& op() const { return q_; }
   // Reading the operator; for solution rows, the world and the scene camera's gather as well.
   double load_seconds() const { return load_seconds_; }
+  // Why this operator's images lack the lamps' mirror images render would draw (a solution
+  // operator written before it kept the mesh's direct light), or "".
+  const std::string& missing_images() const { return missing_images_; }
 
   // The image for these emissions (lights not named keep their scene emission). Throws
   // InputError for an unknown light, a negative or non-finite emission, or an orbit given to a
@@ -83,6 +86,7 @@ class Relighter {
   std::vector<Light> lights_;
   std::unique_ptr<Views> views_;
   double load_seconds_ = 0.0;
+  std::string missing_images_;
 };
 
 struct RelightOptions {

@@ -86,6 +86,9 @@ struct Report {
   std::optional<PathTraceSummary> pathtrace;
   std::optional<RelightSummary> relight;
   std::optional<ImageComparison> comparison;
+  // Warnings a workflow finds beside those its parts describe (kind, message), as the others
+  // printed on stderr and written in the report's `warnings`.
+  std::vector<std::pair<std::string, std::string>> warnings;
   // Named figures a workflow derives (a speed-up, an error between two of its images).
   std::vector<std::pair<std::string, double>> figures;
   StageTimes seconds;

@@ -338,6 +338,9 @@ Gather build_gather(const World& world, const Camera& camera, const UnknownLayou
 // (one application of T per emitting object, two for both), else null.
 std::shared_ptr<const MeshDirect> mesh_direct_for(const GatherOptions& o,
                                                   const TransportOperator& t, const World& world);
+// Whether a gather with options o draws the lamps' mirror images in this world, given its
+// operator has links (`links`): a final gather, images asked for, a light and a planar mirror.
+bool draws_mirror_images(const GatherOptions& o, const World& world, bool links);
 
 // The same gather with its rows built on demand, block by block (for_each_gather_block), so
 // that a final gather, with many entries per pixel, never needs to be held whole. Keeps
