@@ -36,6 +36,27 @@ size_t lines(const std::string& s) {
   return n;
 }
 
+// The run r, whose report is at `report_path`, counted hits where the chain budget cut the
+// facing mirrors' chains and warned of it, once, on stderr and in the report. Returns the counts.
+JsonValue expect_chains_cut(const CommandRun& r, const std::string& report_path) {
+  if (r.code != 0) {
+    ADD_FAILURE() << "exit " << r.code << ": " << r.err;
+    return JsonValue{};
+  }
+  EXPECT_NE(r.err.find("raise --mirror-chains"), std::string::npos) << r.err;
+  JsonValue report = test::read_json(report_path);
+  const JsonValue* warnings = report.find("warnings");
+  EXPECT_EQ(warnings->array.size(), 1u);
+  if (!warnings->array.empty()) {
+    EXPECT_EQ(warnings->array[0].find("kind")->string, "mirror_chains_cut_by_budget");
+  }
+  const JsonValue* chains = report.find("gather")->find("mirror_chains");
+  EXPECT_NE(chains, nullptr);
+  if (!chains) return JsonValue{};
+  EXPECT_GT(chains->find("hits_cut")->number, 0.0);
+  return *chains;
+}
+
 // Where the chain budget cuts the chains of facing mirrors short, the report counts the hits and
 // warns, on stderr too; where it holds them all, neither.
 TEST(Cli, RenderWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
@@ -44,20 +65,14 @@ TEST(Cli, RenderWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
   const std::string render = "render " + test::scene_path("stability/mirrored-room") + " -o " +
                              img + " --report " + rep + kQuickGather;
   CommandRun r = run(render + " --mirror-chains 64");
-  ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("raise --mirror-chains"), std::string::npos) << r.err;
-  JsonValue report = test::read_json(rep);
-  const JsonValue* chains = report.find("gather")->find("mirror_chains");
-  ASSERT_NE(chains, nullptr);
-  EXPECT_GT(chains->find("hits")->number, 0.0);
-  EXPECT_EQ(chains->find("hits_cut")->number, chains->find("hits")->number);
-  const JsonValue* warnings = report.find("warnings");
-  ASSERT_EQ(warnings->array.size(), 1u);
-  EXPECT_EQ(warnings->array[0].find("kind")->string, "mirror_chains_cut_by_budget");
+  const JsonValue chains = expect_chains_cut(r, rep);
+  ASSERT_NE(chains.find("hits"), nullptr);
+  EXPECT_GT(chains.find("hits")->number, 0.0);
+  EXPECT_EQ(chains.find("hits_cut")->number, chains.find("hits")->number);
   r = run(render + " --mirror-chains 100000 --mirror-image-depth 3");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
-  report = test::read_json(rep);
+  const JsonValue report = test::read_json(rep);
   EXPECT_EQ(report.find("gather")->find("mirror_chains")->find("hits_cut")->number, 0.0);
   EXPECT_TRUE(report.find("warnings")->array.empty());
   EXPECT_EQ(run(render + " --mirror-chains -1").code, 2);
@@ -73,13 +88,7 @@ TEST(Cli, PrecomputeWarnsWhereTheChainBudgetCutsFacingMirrorsShort) {
   const std::string cut = " --order 8 --mirror-chains 64" + kQuickGather;
   CommandRun r =
       run("precompute " + scene + " -o " + view + " --output view --report " + rep + cut);
-  ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("raise --mirror-chains"), std::string::npos) << r.err;
-  JsonValue report = test::read_json(rep);
-  const JsonValue* chains = report.find("gather")->find("mirror_chains");
-  ASSERT_NE(chains, nullptr);
-  EXPECT_GT(chains->find("hits_cut")->number, 0.0);
-  EXPECT_EQ(report.find("warnings")->array.size(), 1u);
+  ASSERT_NE(expect_chains_cut(r, rep).find("hits_cut"), nullptr);
   // A view operator's rows hold the gather: relighting it builds none and says nothing of it.
   r = run("relight " + view + " -o " + img + " --report " + rep);
   ASSERT_EQ(r.code, 0) << r.err;
